@@ -1,0 +1,304 @@
+"""The one converter between ``pyvista.ImageData`` and numpy (DESIGN §1 "Grid").
+
+Point data value ``v[i, j, k]`` sits at ``index_to_physical · (i + i0, j + j0, k + k0, 1)`` where
+``(i0, j0, k0)`` is the extent offset; VTK stores x fastest, so a flat point array reshapes with
+``order="F"`` to ``(nx, ny, nz)`` — done here as a view (a C-order reshape to ``(nz, ny, nx)``
+followed by a transpose), never a copy. Cell data is the same rule on cell centres
+(``i + i0 + ½``). Between samples: trilinear; the medium exists only inside the grid's bounds.
+
+The array core works in *sample index space*: continuous coordinates in which sample ``[i, j, k]``
+of the array sits at ``(i, j, k)``. :class:`GridGeometry` holds the affine map from that space to
+world space and the box, in index space, where the medium exists. This module imports pyvista
+only inside the functions that read ``ImageData``; :class:`Volume` and :class:`GridGeometry` are
+array-core objects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._validation import check_vector
+
+_RESAMPLE_HINT = (
+    "pv_ambient renders pyvista.ImageData (uniform grids). Resample your data onto one first, "
+    "e.g. `image = pv.ImageData(dimensions=(n, n, n), spacing=..., origin=...).sample(mesh)` "
+    "for a mesh, or `pv.wrap(array)` / `pv.ImageData(dimensions=array.shape)` with "
+    "`image.point_data['values'] = array.ravel(order='F')` for a numpy array."
+)
+
+
+@dataclass(frozen=True, eq=False)
+class GridGeometry:
+    """Placement of a sample array in world space.
+
+    Attributes
+    ----------
+    shape : tuple of int
+        Sample array shape ``(nx, ny, nz)``.
+    index_to_world : numpy.ndarray
+        4×4 affine map from sample index space to world space.
+    box_lo, box_hi : numpy.ndarray
+        Index-space box where the medium exists (``[0, n−1]`` for point data,
+        ``[−½, n−½]`` for cell data; an axis with one grid point has zero thickness).
+    association : str
+        ``"point"`` or ``"cell"``.
+    """
+
+    shape: tuple
+    index_to_world: np.ndarray
+    box_lo: np.ndarray
+    box_hi: np.ndarray
+    association: str = "point"
+    world_to_index: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        m = np.asarray(self.index_to_world, dtype=np.float64)
+        object.__setattr__(self, "index_to_world", m)
+        object.__setattr__(self, "box_lo", np.asarray(self.box_lo, dtype=np.float64))
+        object.__setattr__(self, "box_hi", np.asarray(self.box_hi, dtype=np.float64))
+        object.__setattr__(self, "world_to_index", np.linalg.inv(m))
+
+    @property
+    def spacing(self) -> np.ndarray:
+        """World length of one index step along each axis."""
+        return np.linalg.norm(self.index_to_world[:3, :3], axis=0)
+
+    @property
+    def corners(self) -> np.ndarray:
+        """The 8 world-space corners of the medium's box, shape (8, 3)."""
+        lo, hi = self.box_lo, self.box_hi
+        idx = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
+        return self.to_world(idx)
+
+    @property
+    def bounds(self) -> tuple:
+        """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the box."""
+        c = self.corners
+        lo, hi = c.min(axis=0), c.max(axis=0)
+        return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
+
+    @property
+    def is_empty(self) -> bool:
+        """True when the box has zero volume (an axis with a single grid point)."""
+        return bool(np.any(self.box_hi <= self.box_lo))
+
+    def to_world(self, ijk) -> np.ndarray:
+        ijk = np.asarray(ijk, dtype=np.float64)
+        return ijk @ self.index_to_world[:3, :3].T + self.index_to_world[:3, 3]
+
+    def to_index(self, xyz) -> np.ndarray:
+        xyz = np.asarray(xyz, dtype=np.float64)
+        return xyz @ self.world_to_index[:3, :3].T + self.world_to_index[:3, 3]
+
+    def key(self) -> tuple:
+        """Hashable identity for caches."""
+        return (self.shape, self.association, self.index_to_world.tobytes(),
+                self.box_lo.tobytes(), self.box_hi.tobytes())
+
+
+def make_geometry(point_dims, index_to_physical, offset=(0, 0, 0), association="point") -> GridGeometry:
+    """Geometry of the point or cell samples of an image with ``point_dims`` grid points.
+
+    ``index_to_physical`` maps *structured* indices (extent-based, as VTK's
+    ``GetIndexToPhysicalMatrix``) to world; ``offset`` is the extent's first index.
+    """
+    dims = np.asarray(point_dims, dtype=np.int64)
+    flat = dims <= 1
+    shift = np.asarray(offset, dtype=np.float64).copy()
+    if association == "point":
+        shape = tuple(int(d) for d in dims)
+        lo = np.zeros(3)
+        hi = (dims - 1).astype(np.float64)
+    elif association == "cell":
+        ncell = np.where(flat, 1, dims - 1)
+        shape = tuple(int(d) for d in ncell)
+        shift = shift + np.where(flat, 0.0, 0.5)
+        lo = np.where(flat, 0.0, -0.5)
+        hi = np.where(flat, 0.0, ncell - 0.5)
+    else:  # pragma: no cover - internal
+        raise ValueError(f"association must be 'point' or 'cell', got {association!r}")
+    translate = np.eye(4)
+    translate[:3, 3] = shift
+    m = np.asarray(index_to_physical, dtype=np.float64) @ translate
+    return GridGeometry(shape=shape, index_to_world=m, box_lo=lo, box_hi=hi, association=association)
+
+
+def geometry_from_spacing(shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), direction=None,
+                          association="point") -> GridGeometry:
+    """Geometry from plain values (the array core's way in, no pyvista needed)."""
+    spacing = check_vector(spacing, "spacing")
+    if np.any(spacing <= 0):
+        raise ValueError(f"spacing must be positive, got {tuple(spacing)}")
+    origin = check_vector(origin, "origin")
+    d = np.eye(3) if direction is None else np.asarray(direction, dtype=np.float64)
+    if d.shape != (3, 3) or not np.all(np.isfinite(d)) or abs(np.linalg.det(d)) < 1e-12:
+        raise ValueError(f"direction must be an invertible 3x3 matrix, got {direction!r}")
+    m = np.eye(4)
+    m[:3, :3] = d * spacing[None, :]
+    m[:3, 3] = origin
+    shape = tuple(int(s) for s in shape)
+    dims = shape if association == "point" else tuple(s + 1 for s in shape)
+    return make_geometry(dims, m, association=association)
+
+
+class Volume:
+    """Arrays on a regular grid plus their placement: the array core's input.
+
+    Parameters
+    ----------
+    arrays : numpy.ndarray or dict of str to numpy.ndarray
+        Sample arrays shaped ``(nx, ny, nz)`` or ``(nx, ny, nz, ncomp)``, indexed ``[i, j, k]``
+        with ``i`` along x. A single array is stored under the name ``"values"``.
+    spacing, origin : sequence of float, default: (1, 1, 1), (0, 0, 0)
+        World spacing and position of sample ``[0, 0, 0]`` (for point data).
+    direction : array_like, optional
+        3×3 direction matrix (columns: world direction of the i, j, k axes).
+    association : {"point", "cell"}, default: "point"
+        Whether the samples sit on grid points or cell centres.
+    active : str, optional
+        Name of the active scalars; defaults to the first array.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pv_ambient._grid import Volume
+    >>> vol = Volume(np.zeros((4, 5, 6), np.float32), spacing=(0.5, 0.5, 0.5))
+    >>> vol.geometry.shape, vol.active
+    ((4, 5, 6), 'values')
+    """
+
+    def __init__(self, arrays, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), direction=None,
+                 association="point", active=None, geometry=None):
+        if not isinstance(arrays, dict):
+            arrays = {"values": arrays}
+        if not arrays:
+            raise ValueError("arrays must hold at least one array, got an empty dict")
+        shape = None
+        clean = {}
+        for name, a in arrays.items():
+            a = np.asarray(a)
+            if a.ndim not in (3, 4):
+                raise ValueError(f"array {name!r} must be 3D (nx, ny, nz) or 4D with components, "
+                                 f"got shape {a.shape}")
+            if shape is None:
+                shape = a.shape[:3]
+            elif a.shape[:3] != shape:
+                raise ValueError(f"array {name!r} has shape {a.shape[:3]}, expected {shape} like the others")
+            clean[name] = a
+        if min(shape) == 0:
+            raise ValueError(f"arrays must not be empty, got shape {shape}")
+        self.arrays = clean
+        self.association = association
+        self.active = active if active is not None else next(iter(clean))
+        if geometry is None:
+            geometry = geometry_from_spacing(shape, spacing, origin, direction, association)
+        self.geometry = geometry
+
+    def __repr__(self):
+        names = ", ".join(f"{k}{tuple(v.shape)}" for k, v in self.arrays.items())
+        return f"Volume({names}, association={self.association!r})"
+
+
+# ---------------------------------------------------------------------------------------------
+# pyvista side
+# ---------------------------------------------------------------------------------------------
+
+def as_image_data(grid, name: str = "grid"):
+    """Return ``grid`` as a ``pyvista.ImageData`` (wrapping a raw ``vtkImageData``), or raise."""
+    import pyvista as pv
+
+    if isinstance(grid, pv.ImageData):
+        return grid
+    try:
+        from vtkmodules.vtkCommonDataModel import vtkImageData
+    except ImportError:  # pragma: no cover
+        vtkImageData = ()
+    if isinstance(grid, vtkImageData):
+        return pv.wrap(grid)
+    raise TypeError(f"{name} must be a pyvista.ImageData or vtkImageData, got "
+                    f"{type(grid).__module__}.{type(grid).__name__}. {_RESAMPLE_HINT}")
+
+
+def _reshape_vtk_array(flat, dims):
+    """View a flat VTK-ordered array (x fastest) as ``(nx, ny, nz[, ncomp])``."""
+    nx, ny, nz = dims
+    a = np.asarray(flat)
+    if a.ndim == 1:
+        return a.reshape((nz, ny, nx)).transpose(2, 1, 0)
+    return a.reshape((nz, ny, nx, a.shape[1])).transpose(2, 1, 0, 3)
+
+
+def image_geometry(image, association="point") -> GridGeometry:
+    """:class:`GridGeometry` of an ImageData's point or cell samples."""
+    ext = image.extent
+    return make_geometry(image.dimensions, image.index_to_physical_matrix,
+                         offset=(ext[0], ext[2], ext[4]), association=association)
+
+
+def volume_from_image(grid, *, preference="point", name="grid") -> Volume:
+    """Read every numeric point (or cell) array of an ImageData into a :class:`Volume` of views."""
+    image = as_image_data(grid, name)
+    if image.n_points == 0:
+        raise ValueError(f"{name} is empty (0 points); nothing to render")
+    point = {k: image.point_data[k] for k in image.point_data.keys()}
+    cell = {k: image.cell_data[k] for k in image.cell_data.keys()}
+    active_name, active_assoc = None, None
+    info = image.active_scalars_info
+    if info is not None and info.name is not None:
+        active_name = info.name
+        active_assoc = "point" if "POINT" in str(info.association).upper() else "cell"
+    use_cell = (preference == "cell" and cell) or (not point and cell)
+    if active_assoc is not None and not (preference == "cell" and active_name in cell):
+        use_cell = active_assoc == "cell"
+    assoc = "cell" if use_cell else "point"
+    source = cell if use_cell else point
+    if not source:
+        raise ValueError(f"{name} has no point or cell arrays; add one, e.g. "
+                         f"grid.point_data['density'] = values.ravel(order='F')")
+    geom = image_geometry(image, assoc)
+    arrays = {k: _reshape_vtk_array(v, geom.shape) for k, v in source.items()}
+    active = active_name if active_name in arrays else next(iter(arrays))
+    vol = Volume(arrays, association=assoc, active=active, geometry=geom)
+    vol.other_arrays = {"point": point, "cell": cell}
+    return vol
+
+
+def select_scalars(volume: Volume, scalars=None, *, component=None, name="scalars") -> np.ndarray:
+    """The scalar field to classify, shape ``(nx, ny, nz)``, any numeric dtype (not copied).
+
+    ``scalars=None`` takes the active scalars. A multi-component array is reduced by its
+    magnitude, or to one component when ``component`` (an index) is given.
+    """
+    if scalars is None:
+        key = volume.active
+    elif isinstance(scalars, str):
+        key = scalars
+    else:
+        raise TypeError(f"{name} must be an array name (str) or None, got {type(scalars).__name__}")
+    if key not in volume.arrays:
+        avail = sorted(volume.arrays)
+        extra = ""
+        other = getattr(volume, "other_arrays", None)
+        if other:
+            alt = "cell" if volume.association == "point" else "point"
+            if key in other[alt]:
+                extra = f" ({key!r} is a {alt} array: pass preference={alt!r})"
+        raise ValueError(f"{name}={key!r} is not an array of the grid's {volume.association} data; "
+                         f"available: {avail}{extra}")
+    a = volume.arrays[key]
+    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
+        raise TypeError(f"{name}={key!r} must be a real numeric array, got dtype {a.dtype}")
+    if a.ndim == 4:
+        if component is None:
+            a = np.sqrt(np.sum(np.square(a, dtype=np.float64), axis=3))
+        else:
+            nc = a.shape[3]
+            if not isinstance(component, (int, np.integer)) or not -nc <= component < nc:
+                raise ValueError(f"component must be an integer index into the {nc} components "
+                                 f"of {key!r}, got {component!r}")
+            a = a[..., component]
+    elif component not in (None, 0):
+        raise ValueError(f"component={component!r} given but {name}={key!r} has one component")
+    return a

@@ -1,0 +1,211 @@
+"""Per-light volumes: optical depth to the light by an upwind sweep, and the tube-marched front.
+
+Light grids are regular grids over the medium's box in *light index space*: node ``k`` sits at
+data index ``lo + k·s`` (``s`` per axis). World vectors of light-index steps are ``B @ dk``.
+
+Optical depth τ(x) = ∫ σt from the light (or the box boundary) to x is computed by *short
+characteristics*: nodes are swept layer by layer away from the light along an axis; a node's
+ray toward the light crosses the previous layer at x', where τ is interpolated bilinearly, and
+τ(x) = τ(x') + ½(σ(x) + σ(x'))·|x − x'| (trapezoid). A point light needs one sweep per axis and
+side (a node takes the value of the sweep along its dominant axis, where |x − x'| ≤ √3 cells);
+a directional light one sweep along its dominant axis. Where x' leaves the grid, or the light
+lies between x and the previous layer, τ is integrated directly along the ray (trapezoid, half-cell
+steps) to the light or the box boundary. Optical depth, not transmittance, is stored and
+interpolated, so lookups are not biased upward by Jensen's inequality on exp.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import driver, prange, scalar
+from .geometry import ray_box
+from .interp import trilinear
+from .medium import sigma_at
+
+
+@driver
+def sample_sigma_grid(mode, field, table, lut_lo, lut_inv, lo, step, out):
+    """σt at every light-grid node (node k ↦ data index lo + k·step)."""
+    m0, m1, m2 = out.shape
+    for k in prange(m2):
+        z = lo[2] + k * step[2]
+        for j in range(m1):
+            y = lo[1] + j * step[1]
+            for i in range(m0):
+                out[i, j, k] = sigma_at(mode, field, table, lut_lo, lut_inv, lo[0] + i * step[0], y, z)
+
+
+@scalar
+def wlen(B, dx, dy, dz):
+    """World length of the light-index vector (dx, dy, dz)."""
+    wx = B[0, 0] * dx + B[0, 1] * dy + B[0, 2] * dz
+    wy = B[1, 0] * dx + B[1, 1] * dy + B[1, 2] * dz
+    wz = B[2, 0] * dx + B[2, 1] * dy + B[2, 2] * dz
+    return math.sqrt(wx * wx + wy * wy + wz * wz)
+
+
+@scalar
+def march_tau(sig, B, x, y, z, vx, vy, vz, tmax):
+    """∫σ along x + t·v, t ∈ [0, tmax] (light index units; v need not be unit), trapezoid in
+    steps of at most half a cell; σ trilinear from the light-grid σ."""
+    n0, n1, n2 = sig.shape
+    lo = (0.0, 0.0, 0.0)
+    hi = (n0 - 1.0, n1 - 1.0, n2 - 1.0)
+    t0, t1 = ray_box(x, y, z, vx, vy, vz, lo, hi)
+    t1 = min(t1, tmax)
+    if not (t1 > 0.0):
+        return 0.0
+    vmax = max(abs(vx), abs(vy), abs(vz))
+    nstep = int(math.ceil(t1 * vmax / 0.5)) + 1
+    dt = t1 / nstep
+    seg = wlen(B, vx, vy, vz) * dt
+    acc = 0.5 * trilinear(sig, x, y, z)
+    for n in range(1, nstep):
+        t = n * dt
+        acc += trilinear(sig, x + t * vx, y + t * vy, z + t * vz)
+    acc += 0.5 * trilinear(sig, x + t1 * vx, y + t1 * vy, z + t1 * vz)
+    return acc * seg
+
+
+@scalar
+def path_length(shape, B, x, y, z, vx, vy, vz, is_point, tmax):
+    """World length of x + t·v, t ∈ [0, tmax] (point light) or t ≥ 0 (directional), inside the
+    light grid's box."""
+    lo = (0.0, 0.0, 0.0)
+    hi = (shape[0] - 1.0, shape[1] - 1.0, shape[2] - 1.0)
+    t0, t1 = ray_box(x, y, z, vx, vy, vz, lo, hi)
+    t0 = max(t0, 0.0)
+    if is_point:
+        t1 = min(t1, tmax)
+    if not (t1 > t0):
+        return 0.0
+    return (t1 - t0) * wlen(B, vx, vy, vz)
+
+
+@scalar
+def _bilerp_layer(a, u, v):
+    """Bilinear value of the 2D array ``a`` at (u, v), assumed inside [0, n−1]²."""
+    n0, n1 = a.shape
+    i0 = min(int(u), n0 - 2) if n0 > 1 else 0
+    j0 = min(int(v), n1 - 2) if n1 > 1 else 0
+    i1 = i0 + 1 if n0 > 1 else 0
+    j1 = j0 + 1 if n1 > 1 else 0
+    fu = u - i0
+    fv = v - j0
+    return ((1 - fu) * ((1 - fv) * a[i0, j0] + fv * a[i0, j1]) +
+            fu * ((1 - fv) * a[i1, j0] + fv * a[i1, j1]))
+
+
+@scalar
+def _node(a, k, b, c, ib, ic):
+    """Light-grid coordinates of lateral node (ib, ic) on layer k of a sweep along axis a."""
+    x = 0.0
+    y = 0.0
+    z = 0.0
+    if a == 0:
+        x, y, z = k, ib, ic
+    elif a == 1:
+        x, y, z = ib, k, ic
+    else:
+        x, y, z = ib, ic, k
+    return float(x), float(y), float(z)
+
+
+@driver
+def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
+    """One sweep along axis ``a`` in direction ``sign`` (+1: increasing index) away from the light.
+
+    For a point light at light-index (lx, ly, lz) the sweep covers the layers beyond the light
+    and writes the nodes whose dominant axis (first axis of largest |x − light|) is ``a``.
+    For a directional light, (lx, ly, lz) is the direction *toward* the light in light-index
+    units scaled so its component along ``a`` is ±1, and every node is written.
+    A node's characteristic reaches back ``jump`` layers (fewer near the start): one bilinear
+    interpolation per ``jump`` layers keeps numerical diffusion low, σt is integrated along the
+    segment in half-cell trapezoid steps. ``hist`` (jump + 1, nb, nc) float64 is a ring buffer of
+    the last layers' path-mean extinction q = τ/ℓ (ℓ: path length inside the box toward the light);
+    interpolating q rather than τ makes the scheme exact in a homogeneous medium.
+    """
+    shape = sig.shape
+    na = shape[a]
+    b = 1 if a == 0 else 0
+    c = 2 if a != 2 else 1
+    nb = shape[b]
+    nc = shape[c]
+    nslot = hist.shape[0]
+    la = lx if a == 0 else (ly if a == 1 else lz)
+    if is_point:
+        if sign > 0:
+            kstart = max(int(math.floor(la)) + 1, 0)
+        else:
+            kstart = min(int(math.ceil(la)) - 1, na - 1)
+    else:
+        kstart = 0 if sign > 0 else na - 1
+    k = kstart
+    done_layers = 0
+    while 0 <= k < na:
+        slot = done_layers % nslot
+        J = min(jump, done_layers)
+        pslot = (done_layers - J) % nslot
+        prev = hist[pslot]
+        for ib in prange(nb):
+            for ic in range(nc):
+                x, y, z = _node(a, k, b, c, ib, ic)
+                if is_point:
+                    vx = lx - x
+                    vy = ly - y
+                    vz = lz - z
+                else:
+                    vx = lx
+                    vy = ly
+                    vz = lz
+                va = abs(vx if a == 0 else (vy if a == 1 else vz))
+                if J == 0 or (is_point and va <= J):
+                    # nothing swept behind this node yet, or the light lies within reach:
+                    # integrate straight to the light (t = 1) or to where the ray leaves the box
+                    tau = march_tau(sig, B, x, y, z, vx, vy, vz, 1.0 if is_point else math.inf)
+                else:
+                    f = J / va
+                    vb = vy if b == 1 else vx
+                    vc = vz if c == 2 else vy
+                    pb = ib + vb * f
+                    pc = ic + vc * f
+                    if pb < 0.0 or pb > nb - 1 or pc < 0.0 or pc > nc - 1:
+                        # the ray leaves the box before the layer J back: integrate to the exit
+                        tau = march_tau(sig, B, x, y, z, vx, vy, vz, f)
+                    else:
+                        # interpolate the path-mean extinction q = τ/ℓ (ℓ: the path length inside
+                        # the box toward the light), exact for a homogeneous medium
+                        qx = x + f * vx
+                        qy = y + f * vy
+                        qz = z + f * vz
+                        lp = path_length(shape, B, qx, qy, qz, vx, vy, vz, is_point, 1.0 - f)
+                        tau = _bilerp_layer(prev, pb, pc) * lp + march_tau(sig, B, x, y, z, vx, vy, vz, f)
+                ln = path_length(shape, B, x, y, z, vx, vy, vz, is_point, 1.0)
+                hist[slot, ib, ic] = tau / ln if ln > 0.0 else sig[int(x), int(y), int(z)]
+                write = True
+                if is_point:
+                    ax = abs(lx - x)
+                    ay = abs(ly - y)
+                    az = abs(lz - z)
+                    dom = 0
+                    if ay > ax:
+                        dom = 1
+                    if az > max(ax, ay):
+                        dom = 2
+                    write = dom == a
+                if write:
+                    if a == 0:
+                        out[k, ib, ic] = tau
+                    elif a == 1:
+                        out[ib, k, ic] = tau
+                    else:
+                        out[ib, ic, k] = tau
+        done_layers += 1
+        k += sign
+
+
+@scalar
+def light_coords(lo, inv_step, x, y, z):
+    """Light-grid coordinates of data-index point (x, y, z)."""
+    return (x - lo[0]) * inv_step[0], (y - lo[1]) * inv_step[1], (z - lo[2]) * inv_step[2]

@@ -1,0 +1,191 @@
+"""Front-to-back ray marching for every ray-cast model: per-sample source functions and the
+march loop (scalar), and their CPU driver.
+
+A camera ray is clipped to the medium's box in sample index space and cut into segments of
+world length ``step`` (the last one shorter); each segment is classified at its midpoint and
+integrated exactly for a piecewise-constant medium: a segment of extinction σ and length ℓ adds
+``T·(1 − e^{−σℓ})·S`` where ``S`` is the model's source per unit extinction, then ``T *= e^{−σℓ}``:
+
+* emission–absorption: ``S = C`` (TF colour; Max's model, σt·C per unit length);
+* ambient occlusion (DESIGN §4.5): ``S = C + a·L_amb·e^{−r σ̄}``;
+* single scattering: ``S = a·Σ_j E_j T_j p(θ_j) + (1 − a)·Le``;
+* ambient scattering (DESIGN §4.4): single scattering plus ``a·Σ_j E_j Φ_j D(θ_j, rσ̄, g, ā)``,
+
+per RGB channel (a: albedo, Le: emission, E_j: I_j/d² or the directional irradiance, T_j and
+Φ_j the light's transmittance volumes). Segments whose block majorant is zero are skipped to
+the block's exit; marching stops when T falls below ``ert``; with ``jitter`` the segment grid
+is shifted by a counter-based uniform per pixel.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import driver, prange, scalar
+from .geometry import affine_point, affine_vector, camera_ray, ray_box
+from .interp import trilinear, trilinear_c
+from .majorant import block_exit, block_of
+from .medium import MODE_GRID, lut_coords, lut_value
+from .phase import phase_eval
+from .rng import uniform
+
+STREAM_JITTER = 1
+
+EMISSION_ABSORPTION = 0
+AMBIENT_OCCLUSION = 1
+SINGLE_SCATTERING = 2
+AMBIENT_SCATTERING = 3
+DIFFUSION = 4
+
+PROP_BEER_LAMBERT = 0
+PROP_TUBE = 1
+
+
+@scalar
+def index_ray(w2i, ox, oy, oz, dx, dy, dz):
+    """The world ray in sample index space: t stays the world distance along the ray."""
+    px, py, pz = affine_point(w2i, ox, oy, oz)
+    qx, qy, qz = affine_vector(w2i, dx, dy, dz)
+    return px, py, pz, qx, qy, qz
+
+
+@scalar
+def medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux, x, y, z):
+    """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z); (k0, k1, f) locate the table
+    entries for :func:`medium_albedo_emission` (unused in GRID mode). Colour is the emission
+    for a physical TF."""
+    s = trilinear(field, x, y, z)
+    if mode == MODE_GRID:
+        return (s, trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5),
+                0, 0, 0.0)
+    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
+    return (lut_value(table, k0, k1, f, 0), lut_value(table, k0, k1, f, 7), lut_value(table, k0, k1, f, 8),
+            lut_value(table, k0, k1, f, 9), k0, k1, f)
+
+
+@scalar
+def medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z):
+    """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color`."""
+    if mode == MODE_GRID:
+        return (trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
+                trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5))
+    return (lut_value(table, k0, k1, f, 1), lut_value(table, k0, k1, f, 2), lut_value(table, k0, k1, f, 3),
+            lut_value(table, k0, k1, f, 4), lut_value(table, k0, k1, f, 5), lut_value(table, k0, k1, f, 6))
+
+
+@scalar
+def light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min):
+    """Unoccluded irradiance (rgb) of light ``l`` at world point w and its propagation direction."""
+    if lkind[l] == 0:  # point light: I/d², direction from the light to w
+        vx = wx - lvec[l, 0]
+        vy = wy - lvec[l, 1]
+        vz = wz - lvec[l, 2]
+        d2 = vx * vx + vy * vy + vz * vz
+        if d2 > 0.0:
+            inv = 1.0 / math.sqrt(d2)
+        else:
+            vx, vy, vz, inv = 0.0, 0.0, 1.0, 1.0
+        d2 = max(d2, d2min)  # guard the singularity at the light (documented in render.py)
+        return lpow[l, 0] / d2, lpow[l, 1] / d2, lpow[l, 2] / d2, vx * inv, vy * inv, vz * inv
+    return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
+
+
+@scalar
+def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min):
+    """Σ_j E_j T_j p(θ_j) (rgb): in-scattered direct light toward the camera (−d)."""
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    lx = (x - llo[0]) * linv[0]
+    ly = (y - llo[1]) * linv[1]
+    lz = (z - llo[2]) * linv[2]
+    for l in range(lkind.shape[0]):
+        er, eg, eb, ox, oy, oz = light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min)
+        T = math.exp(-trilinear_c(tau, lx, ly, lz, l))
+        p = phase_eval(pkind, g, -(ox * dx + oy * dy + oz * dz))
+        w = T * p
+        sr += er * w
+        sg += eg * w
+        sb += eb * w
+    return sr, sg, sb
+
+
+@driver
+def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, row0, row1,
+                  mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                  lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
+                  radius, ball, amb,
+                  out_rad, out_alpha):
+    """Render rows [row0, row1) of the image with ray-cast ``model`` (see the module docstring)."""
+    H, W = out_alpha.shape
+    mx, my, mz = maj.shape
+    for j in prange(row0, row1):
+        for i in range(W):
+            ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, W, H)
+            px, py, pz, qx, qy, qz = index_ray(w2i, ox, oy, oz, dx, dy, dz)
+            t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+            t0 = max(t0, 0.0)
+            r = 0.0
+            gg = 0.0
+            b = 0.0
+            T = 1.0
+            if t0 < t1:
+                offset = uniform(seed, STREAM_JITTER, j * W + i, 0) if jitter else 0.0
+                t = t0
+                tnext = t0 + (1.0 - offset) * step
+                t_block = -1.0  # exit of the current non-empty block: no block lookups before it
+                while t < t1:
+                    te = min(tnext, t1)
+                    tm = 0.5 * (t + te)
+                    x = px + tm * qx
+                    y = py + tm * qy
+                    z = pz + tm * qz
+                    if tm >= t_block:
+                        ba = block_of(x, block, mx)
+                        bb = block_of(y, block, my)
+                        bc = block_of(z, block, mz)
+                        tex = block_exit(px, py, pz, qx, qy, qz, ba, bb, bc, block)
+                        if maj[ba, bb, bc] <= 0.0:
+                            if tex > te:
+                                t = tex  # skip the empty block; realign the segment grid after it
+                                tnext = t + step
+                                continue
+                            t = te
+                            tnext = te + step
+                            continue
+                        t_block = tex
+                    sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux,
+                                                                    x, y, z)
+                    if sig > 0.0:
+                        if model == EMISSION_ABSORPTION:
+                            sr, sg, sb = cr, cg, cb
+                        else:
+                            ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z)
+                        if model == AMBIENT_OCCLUSION:
+                            occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
+                            sr = cr + ar * occ
+                            sg = cg + ag * occ
+                            sb = cb + ab * occ
+                        elif model != EMISSION_ABSORPTION:
+                            wx = ox + tm * dx
+                            wy = oy + tm * dy
+                            wz = oz + tm * dz
+                            lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo,
+                                                      linv, tau, pkind, g, d2min)
+                            sr = ar * lr + (1.0 - ar) * er
+                            sg = ag * lg + (1.0 - ag) * eg
+                            sb = ab * lb + (1.0 - ab) * eb
+                        e = math.exp(-sig * (te - t))
+                        w = T * (1.0 - e)
+                        r += w * sr
+                        gg += w * sg
+                        b += w * sb
+                        T *= e
+                        if T < ert:
+                            break
+                    t = te
+                    tnext = te + step
+            out_rad[j, i, 0] = r + T * bg[0]
+            out_rad[j, i, 1] = gg + T * bg[1]
+            out_rad[j, i, 2] = b + T * bg[2]
+            out_alpha[j, i] = 1.0 - T

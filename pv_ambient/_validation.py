@@ -1,0 +1,96 @@
+"""Argument checks whose messages name the argument and say what was received.
+
+The public API validates and converts here; kernels never validate (DESIGN §5).
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Integral, Real
+
+import numpy as np
+
+
+def _show(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def check_real(value, name: str, *, lo=None, hi=None, lo_open=False, hi_open=False) -> float:
+    """Return ``value`` as a finite float inside the stated interval, or raise naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {_show(value)}")
+    out = float(value)
+    if not math.isfinite(out):
+        raise ValueError(f"{name} must be finite, got {out!r}")
+    if lo is not None and (out < lo or (lo_open and out == lo)):
+        op = ">" if lo_open else ">="
+        raise ValueError(f"{name} must be {op} {lo}, got {out!r}")
+    if hi is not None and (out > hi or (hi_open and out == hi)):
+        op = "<" if hi_open else "<="
+        raise ValueError(f"{name} must be {op} {hi}, got {out!r}")
+    return out
+
+
+def check_int(value, name: str, *, lo=None) -> int:
+    if isinstance(value, bool) or not isinstance(value, (Integral, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {_show(value)}")
+    out = int(value)
+    if lo is not None and out < lo:
+        raise ValueError(f"{name} must be >= {lo}, got {out}")
+    return out
+
+
+def check_vector(value, name: str, size: int = 3, *, nonneg=False, nonzero=False) -> np.ndarray:
+    """A finite float64 vector of ``size`` entries (a scalar is broadcast when size > 1)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be {size} numbers, got {_show(value)}") from None
+    if arr.ndim == 0:
+        arr = np.full(size, float(arr))
+    if arr.shape != (size,):
+        raise ValueError(f"{name} must have {size} components, got shape {arr.shape}: {_show(value)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {_show(value)}")
+    if nonneg and np.any(arr < 0):
+        raise ValueError(f"{name} must be non-negative, got {_show(value)}")
+    if nonzero and not np.any(arr != 0):
+        raise ValueError(f"{name} must not be the zero vector, got {_show(value)}")
+    return arr
+
+
+def check_rgb(value, name: str, *, lo=0.0, hi=None) -> np.ndarray:
+    """An RGB triple (a scalar means grey) with every component in [lo, hi]."""
+    arr = check_vector(value, name, 3)
+    if lo is not None and np.any(arr < lo):
+        raise ValueError(f"{name} components must be >= {lo}, got {_show(value)}")
+    if hi is not None and np.any(arr > hi):
+        raise ValueError(f"{name} components must be <= {hi}, got {_show(value)}")
+    return arr
+
+
+def check_window_size(value, name: str = "window_size") -> tuple[int, int]:
+    """``(width, height)`` as two positive integers."""
+    try:
+        w, h = value
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be (width, height), got {_show(value)}") from None
+    out = []
+    for v in (w, h):
+        if isinstance(v, bool) or not isinstance(v, (Integral, np.integer)):
+            if isinstance(v, (float, np.floating)) and float(v).is_integer():
+                v = int(v)
+            else:
+                raise TypeError(f"{name} must be two positive integers, got {_show(value)}")
+        if int(v) <= 0:
+            raise ValueError(f"{name} must be two positive integers, got {_show(tuple(value))}")
+        out.append(int(v))
+    return out[0], out[1]
+
+
+def check_choice(value, name: str, choices) -> str:
+    if not isinstance(value, str) or value not in choices:
+        options = ", ".join(repr(c) for c in choices)
+        raise ValueError(f"{name} must be one of {options}; got {_show(value)}")
+    return value

@@ -1,0 +1,252 @@
+"""Pinhole and parallel cameras with VTK's conventions (DESIGN §1 "Camera").
+
+For image-plane point (u, v) ∈ [0, 1]² (u right, v down) and aspect = W/H::
+
+    fwd = normalize(focal − position); right = normalize(cross(fwd, up)); up' = cross(right, fwd)
+    perspective: dir = normalize(fwd + (2u−1)·tan(fov/2)·aspect·right + (1−2v)·tan(fov/2)·up')
+    parallel:    origin = position + (2u−1)·scale·aspect·right + (1−2v)·scale·up',  dir = fwd
+
+``view_angle`` is VTK's vertical angle in degrees; ``parallel_scale`` is half the image height
+in world units. Pixel (i, j) (column i, row j from the top) is sampled at its centre
+``u = (i + ½)/W``, ``v = (j + ½)/H``. The array-core :class:`Camera` needs neither pyvista nor
+vtk; :func:`as_camera` converts PyVista/VTK cameras and plotters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validation import check_real, check_vector, check_window_size
+
+#: Index of each camera parameter in the float64 array handed to kernels.
+CAM_POS, CAM_FWD, CAM_RIGHT, CAM_UP, CAM_TAN, CAM_ASPECT, CAM_PARALLEL, CAM_SCALE = 0, 3, 6, 9, 12, 13, 14, 15
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A camera given by plain values (VTK conventions).
+
+    Parameters
+    ----------
+    position, focal_point, view_up : sequence of float
+        World position, the point looked at, and the up direction (need not be orthogonal
+        to the view direction; it is orthogonalised as VTK does).
+    view_angle : float, default: 30.0
+        Vertical field of view in degrees (perspective).
+    parallel_projection : bool, default: False
+        Orthographic projection with half-height ``parallel_scale``.
+    parallel_scale : float, default: 1.0
+        Half the image height in world units (parallel projection).
+
+    Examples
+    --------
+    >>> from pv_ambient.camera import Camera
+    >>> cam = Camera(position=(0, -4, 0), focal_point=(0, 0, 0), view_up=(0, 0, 1))
+    >>> cam.project([[0.0, 0.0, 0.0]], (64, 48)).round(3).tolist()
+    [[32.0, 24.0]]
+    """
+
+    position: tuple
+    focal_point: tuple
+    view_up: tuple = (0.0, 0.0, 1.0)
+    view_angle: float = 30.0
+    parallel_projection: bool = False
+    parallel_scale: float = 1.0
+
+    def __post_init__(self):
+        pos = check_vector(self.position, "camera position")
+        foc = check_vector(self.focal_point, "camera focal_point")
+        up = check_vector(self.view_up, "camera view_up", nonzero=True)
+        if np.allclose(pos, foc):
+            raise ValueError(f"camera position and focal_point coincide at {tuple(pos)}")
+        fwd = (foc - pos) / np.linalg.norm(foc - pos)
+        right = np.cross(fwd, up)
+        if np.linalg.norm(right) < 1e-9 * np.linalg.norm(up):
+            raise ValueError(f"camera view_up {tuple(up)} is parallel to the view direction {tuple(fwd)}")
+        angle = check_real(self.view_angle, "camera view_angle", lo=0.0, hi=180.0, lo_open=True, hi_open=True)
+        scale = check_real(self.parallel_scale, "camera parallel_scale", lo=0.0, lo_open=True)
+        object.__setattr__(self, "position", tuple(pos))
+        object.__setattr__(self, "focal_point", tuple(foc))
+        object.__setattr__(self, "view_up", tuple(up))
+        object.__setattr__(self, "view_angle", angle)
+        object.__setattr__(self, "parallel_projection", bool(self.parallel_projection))
+        object.__setattr__(self, "parallel_scale", scale)
+
+    # -- basis -----------------------------------------------------------------------------
+    def basis(self):
+        """``(forward, right, up')``: orthonormal camera axes in world space."""
+        pos, foc = np.array(self.position), np.array(self.focal_point)
+        fwd = (foc - pos) / np.linalg.norm(foc - pos)
+        right = np.cross(fwd, np.array(self.view_up))
+        right /= np.linalg.norm(right)
+        up = np.cross(right, fwd)
+        return fwd, right, up
+
+    @property
+    def distance(self) -> float:
+        return float(np.linalg.norm(np.subtract(self.focal_point, self.position)))
+
+    def params(self, window_size) -> np.ndarray:
+        """The 16 float64 numbers the kernels read (see the ``CAM_*`` offsets)."""
+        w, h = check_window_size(window_size)
+        fwd, right, up = self.basis()
+        out = np.zeros(16)
+        out[CAM_POS:CAM_POS + 3] = self.position
+        out[CAM_FWD:CAM_FWD + 3] = fwd
+        out[CAM_RIGHT:CAM_RIGHT + 3] = right
+        out[CAM_UP:CAM_UP + 3] = up
+        out[CAM_TAN] = np.tan(np.radians(self.view_angle) / 2.0)
+        out[CAM_ASPECT] = w / h
+        out[CAM_PARALLEL] = 1.0 if self.parallel_projection else 0.0
+        out[CAM_SCALE] = self.parallel_scale
+        return out
+
+    # -- rays and projection (numpy; the kernels have their own scalar version) ----------------
+    def rays(self, window_size):
+        """Ray origins and unit directions for every pixel centre, each ``(H, W, 3)``."""
+        w, h = check_window_size(window_size)
+        fwd, right, up = self.basis()
+        u = (np.arange(w) + 0.5) / w
+        v = (np.arange(h) + 0.5) / h
+        su = (2 * u[None, :] - 1)[..., None]
+        sv = (1 - 2 * v[:, None])[..., None]
+        aspect = w / h
+        if self.parallel_projection:
+            s = self.parallel_scale
+            org = np.array(self.position) + su * s * aspect * right + sv * s * up
+            dirs = np.broadcast_to(fwd, org.shape).copy()
+        else:
+            t = np.tan(np.radians(self.view_angle) / 2)
+            dirs = fwd + su * t * aspect * right + sv * t * up
+            dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+            org = np.broadcast_to(np.array(self.position), dirs.shape).copy()
+        return org, dirs
+
+    def project(self, points, window_size) -> np.ndarray:
+        """Pixel coordinates ``(x, y)`` of world points: x from the left edge, y from the top edge.
+
+        Pixel ``(i, j)``'s centre is at ``(i + ½, j + ½)``.
+        """
+        w, h = check_window_size(window_size)
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64)) - np.array(self.position)
+        fwd, right, up = self.basis()
+        x, y, z = p @ right, p @ up, p @ fwd
+        aspect = w / h
+        if self.parallel_projection:
+            sx = x / (self.parallel_scale * aspect)
+            sy = y / self.parallel_scale
+        else:
+            t = np.tan(np.radians(self.view_angle) / 2)
+            sx = x / (z * t * aspect)
+            sy = y / (z * t)
+        return np.stack([(sx + 1) / 2 * w, (1 - sy) / 2 * h], axis=-1)
+
+    def to_dict(self) -> dict:
+        """The JSON scene form of this camera."""
+        return {"position": list(self.position), "focal_point": list(self.focal_point),
+                "view_up": list(self.view_up), "view_angle": self.view_angle,
+                "parallel_projection": self.parallel_projection, "parallel_scale": self.parallel_scale}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Camera":
+        known = {"position", "focal_point", "view_up", "view_angle", "parallel_projection", "parallel_scale"}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"camera has unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+        missing = {"position", "focal_point"} - set(d)
+        if missing:
+            raise ValueError(f"camera is missing {sorted(missing)}")
+        return cls(**d)
+
+    @classmethod
+    def from_vtk(cls, cam) -> "Camera":
+        """From a ``pyvista.Camera`` or ``vtkCamera``."""
+        return cls(position=cam.GetPosition(), focal_point=cam.GetFocalPoint(), view_up=cam.GetViewUp(),
+                   view_angle=cam.GetViewAngle(), parallel_projection=bool(cam.GetParallelProjection()),
+                   parallel_scale=cam.GetParallelScale())
+
+    def to_vtk(self, cam=None):
+        """Copy this camera into a ``vtkCamera`` (a new ``pyvista.Camera`` when none is given)."""
+        if cam is None:
+            import pyvista as pv
+
+            cam = pv.Camera()
+        cam.SetPosition(*self.position)
+        cam.SetFocalPoint(*self.focal_point)
+        cam.SetViewUp(*self.view_up)
+        cam.SetViewAngle(self.view_angle)
+        cam.SetParallelProjection(self.parallel_projection)
+        cam.SetParallelScale(self.parallel_scale)
+        return cam
+
+
+def default_camera(bounds) -> Camera:
+    """PyVista's default view of ``bounds``: isometric direction (1, 1, 1), z up, reset to fit.
+
+    Uses VTK's own ``vtkRenderer.ResetCamera(bounds)`` (no window needed), so the framing is
+    exactly what ``Plotter.show()`` would pick.
+    """
+    from vtkmodules.vtkRenderingCore import vtkRenderer
+
+    b = [float(x) for x in bounds]
+    center = np.array([(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2])
+    ren = vtkRenderer()
+    cam = ren.GetActiveCamera()
+    cam.SetFocalPoint(*center)
+    cam.SetPosition(*(center + 1.0))
+    cam.SetViewUp(0.0, 0.0, 1.0)
+    ren.ResetCamera(b)
+    return Camera.from_vtk(cam)
+
+
+def as_camera(camera, *, window_size=None, bounds=None):
+    """Resolve ``camera`` (and the window size) from what a PyVista user might hold.
+
+    Parameters
+    ----------
+    camera : Camera, pyvista.Camera, vtkCamera, pyvista.Plotter, dict, list or None
+        ``None`` gives PyVista's default isometric view of ``bounds``. A plotter contributes its
+        active camera and, unless ``window_size`` is given, its window size; a plotter whose
+        camera was never set gets PyVista's default camera first (as ``show()`` would). A list
+        ``[position, focal_point, view_up]`` is PyVista's ``camera_position``; a dict is the JSON
+        scene form.
+    window_size : (int, int), optional
+        ``(width, height)``; default (512, 512) unless the plotter gives one.
+    bounds : sequence of 6 float, optional
+        Volume bounds for the default camera.
+
+    Returns
+    -------
+    tuple of (Camera, (int, int))
+    """
+    size = None
+    if camera is None:
+        if bounds is None:
+            raise ValueError("camera is None and no bounds are known to place a default camera")
+        cam = default_camera(bounds)
+    elif isinstance(camera, Camera):
+        cam = camera
+    elif isinstance(camera, dict):
+        cam = Camera.from_dict(camera)
+    elif isinstance(camera, (list, tuple)) and len(camera) == 3 and all(np.size(c) == 3 for c in camera):
+        cam = Camera(position=camera[0], focal_point=camera[1], view_up=camera[2])
+    elif hasattr(camera, "GetViewAngle") and hasattr(camera, "GetFocalPoint"):
+        cam = Camera.from_vtk(camera)
+    elif hasattr(camera, "renderer") and hasattr(camera, "window_size"):
+        plotter = camera
+        if not getattr(plotter, "camera_set", True):
+            plotter.camera_position = plotter.get_default_cam_pos()
+            plotter.reset_camera()
+            plotter.camera_set = True
+        cam = Camera.from_vtk(plotter.renderer.GetActiveCamera())
+        size = tuple(int(s) for s in plotter.window_size)
+    else:
+        raise TypeError("camera must be a pv_ambient.Camera, pyvista.Camera, vtkCamera, pyvista.Plotter, "
+                        f"a dict, [position, focal_point, view_up] or None; got {type(camera).__name__}")
+    if window_size is not None:
+        size = check_window_size(window_size)
+    elif size is None:
+        size = (512, 512)
+    return cam, size

@@ -1,0 +1,368 @@
+"""``render(grid, ...)`` and the :class:`Renderer` that keeps per-scene caches.
+
+Data flows one way (DESIGN §5): ImageData → arrays (``_grid``) → optical properties
+(``transfer``) → per-light / per-radius volumes → image. Each stage is cached on its inputs, so
+moving the camera re-runs only the ray cast.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ._grid import Volume, volume_from_image
+from ._validation import check_choice, check_int, check_real, check_rgb
+from .camera import as_camera
+from .lights import as_lights, pack_lights
+from .result import RenderResult
+from .transfer import as_transfer_function
+
+MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering")
+MODEL_IDS = {"emission_absorption": 0, "ambient_occlusion": 1, "single_scattering": 2, "ambient_scattering": 3,
+             "diffusion": 4}
+#: Optical depth above which a light counts as blocked (e^-700 underflows double precision soon after).
+TAU_OPAQUE = 700.0
+_DUMMY4 = np.zeros((1, 1, 1, 1), np.float32)
+ALL_MODELS = ("auto", "emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering",
+              "diffusion", "path_traced")
+#: Block size (samples) of the majorant grid used for empty-space skipping.
+MAJORANT_BLOCK = 8
+#: Default early-ray-termination threshold on the transmittance.
+ERT = 1e-5
+#: Ray step per quality preset, in units of the smallest grid spacing.
+QUALITY_STEP = {"preview": 1.0, "balanced": 0.5, "accurate": 0.25}
+#: Options that belong to particular models (accepted by every render call, used where they apply).
+MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited", "backend",
+                 "target_error"}
+#: Every option a scene file may carry at top level besides the common ones.
+SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance"}
+
+
+def _tiles(n, count):
+    edges = np.linspace(0, n, min(count, n) + 1).astype(int)
+    return list(zip(edges[:-1], edges[1:]))
+
+
+class _NoGrid:
+    lo = np.zeros(3)
+    inv_step = np.zeros(3)
+
+
+_NO_GRID = _NoGrid()
+
+
+class Renderer:
+    """A volume, its transfer function and lights, with caches that survive camera moves.
+
+    Parameters
+    ----------
+    grid : pyvista.ImageData, vtkImageData or pv_ambient._grid.Volume
+        The volume. Never modified.
+    transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
+        How scalars become optical properties; PyVista's defaults when None.
+    scalars : str, optional
+        Array to classify (the active scalars when None).
+    component : int, optional
+        Component of a multi-component array (magnitude when None).
+    lights : sequence of PointLight, DirectionalLight or dict, optional
+    preference : {"point", "cell"}, default: "point"
+        Which data to use when both exist.
+    nan_policy : {"raise", "vacuum"}, default: "raise"
+        Non-finite scalars are an error, or empty space (see :mod:`pv_ambient.transfer`).
+
+    Examples
+    --------
+    >>> import pv_ambient
+    >>> from pv_ambient import datasets
+    >>> r = pv_ambient.Renderer(datasets.cloud(n=24))
+    >>> res = r.render(window_size=(32, 24))
+    >>> res.radiance.shape
+    (24, 32, 3)
+    """
+
+    def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=(),
+                 preference="point", nan_policy="raise"):
+        check_choice(preference, "preference", ("point", "cell"))
+        self.volume = grid if isinstance(grid, Volume) else volume_from_image(grid, preference=preference)
+        self.transfer_function = as_transfer_function(transfer_function)
+        t = time.perf_counter()
+        self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
+                                                     nan_policy=nan_policy)
+        self.timings = {"classify": time.perf_counter() - t}
+        self.lights = as_lights(lights)
+        self._cache = {}
+
+    @property
+    def geometry(self):
+        return self.volume.geometry
+
+    @property
+    def bounds(self):
+        return self.geometry.bounds
+
+    def default_step(self, quality="balanced") -> float:
+        """The ray step of a quality preset (world units)."""
+        return QUALITY_STEP[quality] * float(np.min(self.geometry.spacing))
+
+    def set_lights(self, lights):
+        """Replace the lights; cached volumes of lights that stay are kept (a relight)."""
+        self.lights = as_lights(lights)
+
+    def majorant(self, block=MAJORANT_BLOCK):
+        """Upper bound of σt per ``block``³ samples (cached)."""
+        key = ("majorant", block)
+        if key not in self._cache:
+            from ._kernels.majorant import build_majorant
+
+            o = self.optics
+            shape = tuple(max(1, -(-(n - 1) // block)) for n in o.field.shape)
+            maj = np.zeros(shape, np.float32)
+            build_majorant(o.mode, o.field, o.table, o.lut_lo, o.lut_inv, block, maj)
+            self._cache[key] = maj
+        return self._cache[key]
+
+    # -- cached stages ---------------------------------------------------------------------
+    def light_grid(self, light_resolution=None):
+        """The light grid for a resolution factor (DESIGN §4.3 default when None)."""
+        from .propagation import default_factor, make_light_grid
+
+        f = default_factor(self.optics, self.geometry) if light_resolution is None else light_resolution
+        key = ("light_grid", float(f))
+        if key not in self._cache:
+            self._cache[key] = make_light_grid(self.geometry, f)
+        return self._cache[key]
+
+    def sigma_on_light_grid(self, grid):
+        from .propagation import sigma_on_grid
+
+        key = ("sigma_l", grid.key())
+        if key not in self._cache:
+            self._cache[key] = sigma_on_grid(self.optics, grid)
+        return self._cache[key]
+
+    def optical_depth(self, light, grid):
+        """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light)."""
+        from .propagation import optical_depth
+
+        key = ("tau", light, grid.key())
+        if key not in self._cache:
+            t = time.perf_counter()
+            self._cache[key] = optical_depth(self.sigma_on_light_grid(grid), grid, self.geometry, light)
+            self.timings[f"light volume {light}"] = time.perf_counter() - t
+        return self._cache[key]
+
+    def active_lights(self, grid):
+        """Lights that can reach the medium: non-zero power and transmittance not zero everywhere."""
+        out = []
+        for lt in self.lights:
+            if max(lt.power) <= 0.0:
+                continue
+            if float(np.min(self.optical_depth(lt, grid))) > TAU_OPAQUE:
+                continue
+            out.append(lt)
+        return tuple(out)
+
+    def ball_grid(self, radius):
+        """σ̄ (mean extinction over the ball of world radius ``radius``) and the ball's mean albedo
+        ā = mean(σs)/σ̄ per channel, at every data sample: float32 (nx, ny, nz, 4)."""
+        key = ("ball", float(radius))
+        if key not in self._cache:
+            from .sat import mean_extinction
+
+            sig = self.optics.sigma_grid()
+            alb = self.optics.albedo_grid()
+            sp = self.geometry.spacing
+            out = np.zeros(sig.shape + (4,), np.float32)
+            out[..., 0] = mean_extinction(sig, sp, radius)
+            for c in range(3):
+                ms = mean_extinction(np.ascontiguousarray(sig * alb[..., c]), sp, radius)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    out[..., 1 + c] = np.where(out[..., 0] > 0, np.clip(ms / out[..., 0], 0.0, 1.0), 0.0)
+            self._cache[key] = out
+        return self._cache[key]
+
+    def resolve_model(self, model, grid=None):
+        """The model ``auto`` stands for (rules in :meth:`render`)."""
+        if model != "auto":
+            return model
+        if not self.optics.has_scattering:
+            return "single_scattering"  # emission only: no light volumes are built (no scattering)
+        lights = self.active_lights(grid or self.light_grid())
+        return "ambient_scattering" if lights else "single_scattering"
+
+    def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
+               jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
+               progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
+               **model_options) -> RenderResult:
+        """Render one image.
+
+        Parameters
+        ----------
+        camera : Camera, pyvista.Camera, pyvista.Plotter, dict or list, optional
+            PyVista's default isometric view of the volume when None.
+        window_size : (int, int), optional
+            ``(width, height)``; the plotter's when a plotter is given, else (512, 512).
+        model : str, default: "emission_absorption"
+            ``"emission_absorption"``, ``"ambient_occlusion"``, ``"single_scattering"``,
+            ``"ambient_scattering"`` or ``"auto"``. ``auto`` picks the cheapest model that
+            represents the scene: without scattering (albedo 0 wherever σt > 0) or without a
+            light that reaches the medium it is ``single_scattering`` with no light volumes
+            (emission and absorption only); otherwise ``ambient_scattering``. Lights with zero
+            power, or behind an opaque wall (optical depth > 700 everywhere), are skipped by
+            every model.
+        quality : {"preview", "balanced", "accurate"}, default: "balanced"
+            Preset for the knobs not given explicitly (the ray step: 1, ½, ¼ of the smallest
+            grid spacing).
+        step : float, optional
+            Ray-marching step in world units (overrides ``quality``).
+        jitter : bool, default: False
+            Shift each ray's sample grid by a seeded random fraction of a step.
+        seed : int, default: 0
+        background : RGB, default: (0, 0, 0)
+            Constant background radiance seen through the volume (not a light).
+        early_termination : float, default: 1e-5
+            Stop a ray once its transmittance falls below this (0 disables).
+        phase : PhaseFunction, float or dict, optional
+            Phase function of the scattering models (isotropic when None).
+        radius : float, optional
+            Ambient radius r in world units (ambient occlusion / scattering); default 4 data
+            spacings. A string like ``"4 voxels"`` gives it in units of the largest spacing.
+        light_resolution : float, optional
+            Light-grid nodes per data spacing (DESIGN §4.3 default when None).
+        ambient_radiance : float, default: 1.0
+            Uniform ambient radiance of ``ambient_occlusion``.
+        progress_bar : bool, default: False
+            Show a tqdm progress bar over image tiles.
+        **model_options
+            Knobs of other models (see ``MODEL_OPTIONS``); unknown names are an error.
+
+        Notes
+        -----
+        A point light's fall-off ``I/d²`` is clamped at ``d = step/4`` (a sample closer than a
+        quarter step to the light cannot resolve the singularity).
+        """
+        from .phase import as_phase
+
+        cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
+        check_choice(model, "model", ALL_MODELS)
+        check_choice(quality, "quality", tuple(QUALITY_STEP))
+        unknown = set(model_options) - MODEL_OPTIONS
+        if unknown:
+            raise TypeError(f"render() got unknown options {sorted(unknown)}; model options are {sorted(MODEL_OPTIONS)}")
+        if step is None:
+            step = QUALITY_STEP[quality] * float(np.min(self.geometry.spacing))
+        else:
+            step = check_real(step, "step", lo=0.0, lo_open=True)
+        seed = check_int(seed, "seed", lo=0)
+        bg = check_rgb(background, "background")
+        ert = check_real(early_termination, "early_termination", lo=0.0, hi=1.0)
+        amb = check_real(ambient_radiance, "ambient_radiance", lo=0.0)
+        ph = as_phase(phase)
+        radius = self._radius(radius)
+        t_start = time.perf_counter()
+        requested = model
+        grid = self.light_grid(light_resolution) if model != "emission_absorption" else None
+        model = self.resolve_model(model, grid)
+        if model not in MODELS:
+            raise ValueError(f"model {model!r} is not implemented yet; available: {MODELS}")
+        w, h = size
+        rad = np.zeros((h, w, 3), np.float32)
+        alpha = np.zeros((h, w), np.float32)
+        lights = self.active_lights(grid) if model in ("single_scattering", "ambient_scattering") else ()
+        if model == "single_scattering" and not self.optics.has_scattering:
+            lights = ()
+        taus = [self.optical_depth(lt, grid) for lt in lights]
+        ball = self.ball_grid(radius) if model in ("ambient_occlusion", "ambient_scattering") else _DUMMY4
+        t_prep = time.perf_counter() - t_start
+        if not self.geometry.is_empty:
+            kind, vec, power = pack_lights(lights)
+            tau = np.stack(taus, axis=-1) if taus else _DUMMY4
+            lg = grid if grid is not None else _NO_GRID
+            o = self.optics
+            g = self.geometry
+            args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg)
+            medium = (o.mode, o.field, o.table, o.lut_lo, o.lut_inv, o.aux, self.majorant(), MAJORANT_BLOCK)
+            light_args = (kind, vec, power, lg.lo, lg.inv_step, tau, ph.kind, float(ph.g), (0.25 * step) ** 2)
+            self._run_tiles(MODEL_IDS[model], args, medium, light_args, (radius, ball, amb), rad, alpha,
+                            progress_bar, model)
+        else:
+            rad[:] = bg
+        meta = {"model": model, "requested_model": requested, "quality": quality, "step": step,
+                "window_size": size, "jitter": bool(jitter), "seed": seed, "backend": "cpu",
+                "lights": len(lights), "radius": radius, "phase": repr(ph),
+                "light_grid": None if grid is None else grid.shape,
+                "time_prepare": t_prep, "time_render": time.perf_counter() - t_start - t_prep,
+                "early_termination": ert}
+        return RenderResult(radiance=rad, alpha=alpha, camera=cam, metadata=meta)
+
+    def _radius(self, radius):
+        h = float(np.max(self.geometry.spacing))
+        if radius is None:
+            return 4.0 * h
+        if isinstance(radius, str):
+            parts = radius.split()
+            if len(parts) == 2 and parts[1] in ("voxel", "voxels"):
+                try:
+                    return check_real(float(parts[0]), "radius", lo=0.0) * h
+                except ValueError:
+                    pass
+            raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
+        return check_real(radius, "radius", lo=0.0)
+
+    def _run_tiles(self, model_id, args, medium, light_args, ao_args, rad, alpha, progress_bar, name):
+        from ._kernels.raycast import raycast_image
+
+        tiles = _tiles(rad.shape[0], 16 if progress_bar else 1)
+        bar = None
+        if progress_bar:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=len(tiles), desc=name, unit="tile")
+        try:
+            for r0, r1 in tiles:
+                raycast_image(model_id, *args, r0, r1, *medium, *light_args, *ao_args, rad, alpha)
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+
+
+def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=(), model="emission_absorption",
+           scalars=None, component=None, preference="point", nan_policy="raise", **options) -> RenderResult:
+    """Render a volume: the one-call entry point.
+
+    Parameters
+    ----------
+    grid : pyvista.ImageData or vtkImageData
+        The volume (never modified).
+    transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
+        PyVista's defaults (theme colormap, linear opacity, default unit distance) when None.
+    camera : pyvista.Camera, pyvista.Plotter, Camera, dict or list, optional
+        PyVista's default isometric view when None.
+    window_size : (int, int), optional
+        ``(width, height)``.
+    lights : sequence, optional
+        Point and directional lights (used by the scattering models).
+    model : str, default: "emission_absorption"
+    **options
+        Passed to :meth:`Renderer.render` (``step``, ``jitter``, ``seed``, ``background``,
+        ``early_termination``, ``progress_bar``).
+
+    Returns
+    -------
+    RenderResult
+
+    Examples
+    --------
+    >>> import pv_ambient
+    >>> from pv_ambient import datasets
+    >>> grid = datasets.supernova(n=24)
+    >>> res = pv_ambient.render(grid, window_size=(40, 30))
+    >>> res.radiance.shape, res.alpha.shape
+    ((30, 40, 3), (30, 40))
+    """
+    r = Renderer(grid, transfer_function=transfer_function, scalars=scalars, component=component,
+                 lights=lights, preference=preference, nan_policy=nan_policy)
+    return r.render(camera=camera, window_size=window_size, model=model, **options)

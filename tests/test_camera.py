@@ -1,0 +1,92 @@
+"""Camera: our projection against VTK's own transform, and ray generation against projection."""
+import numpy as np
+import pytest
+import pyvista as pv
+
+from pv_ambient.camera import Camera, as_camera, default_camera
+
+
+def vtk_pixels(cam: Camera, points, size):
+    """Project with VTK's GetCompositeProjectionTransformMatrix → pixel coords (x right, y down)."""
+    w, h = size
+    vc = cam.to_vtk()
+    vc.SetClippingRange(0.01, 1000.0)
+    m = np.array([[vc.GetCompositeProjectionTransformMatrix(w / h, -1, 1).GetElement(i, j) for j in range(4)]
+                  for i in range(4)])
+    hom = np.c_[points, np.ones(len(points))] @ m.T
+    ndc = hom[:, :3] / hom[:, 3:4]
+    return np.c_[(ndc[:, 0] + 1) / 2 * w, (1 - ndc[:, 1]) / 2 * h]
+
+
+CAMERAS = [
+    Camera((3, -4, 2), (0.1, 0.2, -0.3), (0, 0, 1), view_angle=30),
+    Camera((0.5, 0.2, 7), (0, 0, 0), (0.3, 1, 0), view_angle=55),
+    Camera((-2, -2, -2), (1, 0.5, 0), (0, 1, 1), parallel_projection=True, parallel_scale=1.7),
+]
+
+
+@pytest.mark.parametrize("cam", CAMERAS)
+@pytest.mark.parametrize("size", [(640, 480), (123, 301)])
+def test_projection_matches_vtk(cam, size):
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-1, 1, (200, 3))
+    ours = cam.project(pts, size)
+    theirs = vtk_pixels(cam, pts, size)
+    assert np.max(np.abs(ours - theirs)) <= 0.01
+
+
+@pytest.mark.parametrize("cam", CAMERAS)
+def test_rays_pass_through_pixel_centres(cam):
+    size = (37, 23)
+    org, dirs = cam.rays(size)
+    pts = org + 2.5 * dirs
+    px = cam.project(pts.reshape(-1, 3), size).reshape(23, 37, 2)
+    jj, ii = np.mgrid[0:23, 0:37]
+    assert np.allclose(px[..., 0], ii + 0.5, atol=1e-9)
+    assert np.allclose(px[..., 1], jj + 0.5, atol=1e-9)
+
+
+def test_from_plotter_uses_window_and_default_camera():
+    grid = pv.ImageData(dimensions=(5, 6, 7), spacing=(0.5, 0.5, 0.5))
+    pl = pv.Plotter(off_screen=True, window_size=(200, 100))
+    pl.add_mesh(grid.outline())
+    cam, size = as_camera(pl)
+    assert size == (200, 100)
+    pl2 = pv.Plotter(off_screen=True, window_size=(200, 100))
+    pl2.add_mesh(grid.outline())
+    pl2.show(auto_close=False)  # PyVista sets its default camera here
+    ref = Camera.from_vtk(pl2.camera)
+    assert np.allclose(cam.position, ref.position) and np.allclose(cam.focal_point, ref.focal_point)
+    pl.close()
+    pl2.close()
+
+
+def test_default_camera_is_pyvistas():
+    grid = pv.ImageData(dimensions=(5, 6, 7), spacing=(0.5, 0.25, 1.0), origin=(1, 2, 3))
+    pl = pv.Plotter(off_screen=True)
+    pl.add_mesh(grid.outline())
+    pl.show(auto_close=False)
+    ref = Camera.from_vtk(pl.camera)
+    cam = default_camera(grid.bounds)
+    assert np.allclose(cam.position, ref.position, atol=1e-9)
+    assert np.allclose(cam.focal_point, ref.focal_point, atol=1e-9)
+    assert cam.view_angle == ref.view_angle
+    pl.close()
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(position=(0, 0, 0), focal_point=(0, 0, 0)), "coincide"),
+    (dict(position=(0, 0, 0), focal_point=(0, 0, 1), view_up=(0, 0, 2)), "parallel"),
+    (dict(position=(0, 0, 0), focal_point=(1, 0, 0), view_angle=0), "view_angle"),
+    (dict(position=(0, 0, np.nan), focal_point=(1, 0, 0)), "position"),
+])
+def test_bad_camera(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        Camera(**kwargs)
+
+
+def test_as_camera_errors():
+    with pytest.raises(TypeError, match="camera must be"):
+        as_camera(42, bounds=(0, 1, 0, 1, 0, 1))
+    with pytest.raises(ValueError, match="window_size"):
+        as_camera(None, window_size=(0, 10), bounds=(0, 1, 0, 1, 0, 1))

@@ -1,0 +1,120 @@
+"""ImageData ↔ numpy: order, spacing, origin, direction, extent offset, cell data, bad input."""
+import numpy as np
+import pytest
+import pyvista as pv
+from vtkmodules.vtkCommonDataModel import vtkImageData
+
+from pv_ambient._grid import Volume, image_geometry, select_scalars, volume_from_image
+
+
+def rotated_grid():
+    g = pv.ImageData(dimensions=(4, 5, 6), spacing=(0.5, 0.25, 2.0), origin=(1.0, -2.0, 3.0))
+    c, s = np.cos(0.4), np.sin(0.4)
+    g.direction_matrix = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    g.offset = (2, -1, 3)
+    g["v"] = np.arange(g.n_points, dtype=np.float64)
+    return g
+
+
+def test_point_values_sit_at_their_points():
+    g = rotated_grid()
+    vol = volume_from_image(g)
+    a = vol.arrays["v"]
+    assert a.shape == (4, 5, 6)
+    ijk = np.array([[1, 2, 3], [3, 0, 5], [0, 4, 0]])
+    world = vol.geometry.to_world(ijk)
+    for (i, j, k), x in zip(ijk, world):
+        pid = g.find_closest_point(x)
+        assert np.allclose(g.points[pid], x, atol=1e-9)
+        assert a[i, j, k] == g["v"][pid]
+
+
+def test_reshape_is_a_view():
+    g = rotated_grid()
+    vol = volume_from_image(g)
+    assert np.shares_memory(vol.arrays["v"], g.point_data["v"])
+
+
+def test_cell_data_sits_at_cell_centres():
+    g = rotated_grid()
+    g.cell_data["c"] = np.arange(g.n_cells, dtype=np.float32)
+    g.point_data.clear()
+    vol = volume_from_image(g)
+    assert vol.association == "cell" and vol.arrays["c"].shape == (3, 4, 5)
+    centres = g.cell_centers().points
+    ijk = np.array([[2, 3, 4], [0, 1, 2]])
+    for (i, j, k), x in zip(ijk, vol.geometry.to_world(ijk)):
+        cid = int(vol.arrays["c"][i, j, k])
+        assert np.allclose(centres[cid], x, atol=1e-9)
+    # the medium box of cell data is the grid's bounds
+    assert np.allclose(vol.geometry.bounds, g.bounds, atol=1e-9)
+
+
+def test_bounds_match_pyvista():
+    g = rotated_grid()
+    assert np.allclose(image_geometry(g).bounds, g.bounds, atol=1e-9)
+
+
+def test_raw_vtk_image_is_wrapped():
+    raw = vtkImageData()
+    raw.SetDimensions(3, 3, 3)
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+
+    arr = numpy_to_vtk(np.ones(27))
+    arr.SetName("x")
+    raw.GetPointData().AddArray(arr)
+    vol = volume_from_image(raw)
+    assert vol.arrays["x"].shape == (3, 3, 3)
+
+
+@pytest.mark.parametrize("obj, name", [
+    (pv.Sphere(), "PolyData"),
+    (pv.ImageData(dimensions=(3, 3, 3)).cast_to_unstructured_grid(), "UnstructuredGrid"),
+    (pv.RectilinearGrid(np.arange(3.0), np.arange(3.0), np.arange(3.0)), "RectilinearGrid"),
+    (np.zeros((3, 3, 3)), "ndarray"),
+])
+def test_other_types_are_refused_with_a_hint(obj, name):
+    with pytest.raises(TypeError, match=rf"grid must be a pyvista.ImageData.*{name}.*[Rr]esample"):
+        volume_from_image(obj)
+
+
+def test_empty_and_missing():
+    with pytest.raises(ValueError, match="empty"):
+        volume_from_image(pv.ImageData(dimensions=(0, 0, 0)))
+    g = pv.ImageData(dimensions=(3, 3, 3))
+    with pytest.raises(ValueError, match="no point or cell arrays"):
+        volume_from_image(g)
+    g["a"] = np.zeros(27)
+    vol = volume_from_image(g)
+    with pytest.raises(ValueError, match=r"scalars='nope' is not an array.*available: \['a'\]"):
+        select_scalars(vol, "nope")
+
+
+def test_multicomponent_magnitude_and_component():
+    g = pv.ImageData(dimensions=(3, 3, 3))
+    v = np.random.default_rng(0).normal(size=(27, 3))
+    g["vec"] = v
+    vol = volume_from_image(g)
+    mag = select_scalars(vol, "vec")
+    assert np.allclose(mag.ravel(order="F"), np.linalg.norm(v, axis=1))
+    assert np.allclose(select_scalars(vol, "vec", component=1).ravel(order="F"), v[:, 1])
+    with pytest.raises(ValueError, match="component"):
+        select_scalars(vol, "vec", component=5)
+
+
+def test_string_array_refused():
+    g = pv.ImageData(dimensions=(2, 2, 2))
+    g["n"] = np.arange(8.0)
+    vol = volume_from_image(g)
+    vol.arrays["s"] = np.array(["a"] * 8).reshape(2, 2, 2)
+    with pytest.raises(TypeError, match="numeric"):
+        select_scalars(vol, "s")
+
+
+def test_volume_from_numpy():
+    vol = Volume(np.zeros((2, 3, 4)), spacing=(1, 2, 3), origin=(1, 1, 1))
+    assert np.allclose(vol.geometry.to_world([[1, 1, 1]]), [[2, 3, 4]])
+    with pytest.raises(ValueError, match="spacing"):
+        Volume(np.zeros((2, 3, 4)), spacing=(1, 0, 3))
+    with pytest.raises(ValueError, match="empty"):
+        Volume(np.zeros((0, 3, 4)))
