@@ -39,8 +39,8 @@ class PointLight:
     intensity: tuple = (1.0, 1.0, 1.0)
 
     def __post_init__(self):
-        object.__setattr__(self, "position", tuple(check_vector(self.position, "light position")))
-        object.__setattr__(self, "intensity", tuple(check_rgb(self.intensity, "light intensity")))
+        object.__setattr__(self, "position", tuple(float(v) for v in check_vector(self.position, "light position")))
+        object.__setattr__(self, "intensity", tuple(float(v) for v in check_rgb(self.intensity, "light intensity")))
 
     @property
     def power(self):
@@ -67,8 +67,8 @@ class DirectionalLight:
 
     def __post_init__(self):
         d = check_vector(self.direction, "light direction", nonzero=True)
-        object.__setattr__(self, "direction", tuple(d / np.linalg.norm(d)))
-        object.__setattr__(self, "irradiance", tuple(check_rgb(self.irradiance, "light irradiance")))
+        object.__setattr__(self, "direction", tuple(float(v) for v in d / np.linalg.norm(d)))
+        object.__setattr__(self, "irradiance", tuple(float(v) for v in check_rgb(self.irradiance, "light irradiance")))
 
     @property
     def power(self):
