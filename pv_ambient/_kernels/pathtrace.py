@@ -1,0 +1,206 @@
+"""Unbiased volumetric path tracing (DESIGN §1 RTE, §2 ``path_traced``): the per-path scalar
+kernel and its CPU driver over image rows.
+
+Estimator (one path per call, RGB throughput ``β``, grey extinction):
+
+1. **Camera ray** through the pixel centre (the quantity every ray-cast model computes, so
+   images compare pixel by pixel), clipped to the medium's box.
+2. **Free flight** by delta tracking (:mod:`.tracking`): the first real collision has density
+   ``σt(x) T(x)``. A primary ray that leaves the medium adds the background ``L_b`` (so its
+   expectation is ``T·L_b``); the background is radiance *seen through* the volume, not a
+   light (DESIGN §1), so a ray that escapes after a scattering event adds nothing.
+3. **Emission** at a real collision: ``β·(1 − a)·Le``. Since the collision density is
+   ``σt T``, its expectation is ``∫ T σa Le`` with ``σa = (1 − a)σt`` per channel — the
+   pbrt/Mitsuba source term (DESIGN §1) without a second, stochastic absorb/scatter choice.
+4. **Next-event estimation** to every light: ``β·a·E·T_l·p(θ)`` with ``E = I/max(d², d2min)``
+   for a point light (the clamp of :func:`.raycast.light_at`) or the directional irradiance,
+   ``T_l`` a ratio-tracking estimate along the shadow ray (to the light, or to the box exit for
+   a directional light; a point light may lie inside or outside the box) and
+   ``cos θ = ω_light · (−ω_ray)`` (propagation directions, DESIGN §1).
+5. **Scattering**: ``β *= a`` (RGB albedo as a weight, so one path carries all channels),
+   a new direction from the phase function by importance sampling (``phase_sample``: the
+   weight ``p/pdf`` is exactly 1), and a new free flight from the collision point.
+6. **Termination**: after ``rr_depth`` collisions, Russian roulette with survival probability
+   ``q = max(β)`` (then ``β /= q``); ``max_depth`` collisions at most. Collision ``n`` adds
+   emission scattered ``n − 1`` times and light scattered ``n`` times, so ``max_depth = 1`` is
+   single scattering (NEE at the first collision only) plus the emission–absorption term.
+
+Each path also reports whether its primary ray collided (an unbiased estimate of the primary
+ray's opacity ``1 − T``). Random numbers: ``rng.uniform(seed, pixel, sample, dim)``, ``dim``
+counting the path's draws, so every path is a pure function of (seed, pixel, sample) and the
+image does not depend on the thread count.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import driver, prange, scalar
+from .geometry import affine_point, affine_vector, camera_ray, ray_box
+from .phase import phase_eval, phase_sample
+from .raycast import light_at, medium_albedo_emission
+from .rng import key
+from .tracking import delta_track, draw, ratio_track
+
+#: Ratio tracking along shadow rays switches on Russian roulette below this transmittance.
+SHADOW_RR_BELOW = 0.05
+
+
+@scalar
+def direct_light_nee(wx, wy, wz, dx, dy, dz, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, maj, block,
+                     lkind, lvec, lpow, pkind, g, d2min, k, dim):
+    """Σ_l E_l T_l p(θ_l) (rgb) at world point w for a path travelling along d; T_l by ratio tracking.
+
+    Returns ``(r, g, b, dim)``.
+    """
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    px, py, pz = affine_point(w2i, wx, wy, wz)
+    for l in range(lkind.shape[0]):
+        er, eg, eb, lx, ly, lz = light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min)
+        if er <= 0.0 and eg <= 0.0 and eb <= 0.0:
+            continue
+        # Shadow ray toward the light: to the light itself, or out of the box (directional).
+        if lkind[l] == 0:
+            vx = lvec[l, 0] - wx
+            vy = lvec[l, 1] - wy
+            vz = lvec[l, 2] - wz
+            dist = math.sqrt(vx * vx + vy * vy + vz * vz)
+        else:
+            dist = math.inf
+        qx, qy, qz = affine_vector(w2i, -lx, -ly, -lz)
+        t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+        t0 = max(t0, 0.0)
+        t1 = min(t1, dist)
+        T = 1.0
+        if t0 < t1:
+            T, dim = ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block,
+                                 SHADOW_RR_BELOW, k, dim)
+        if T > 0.0:
+            # Light propagates along (lx, ly, lz) and leaves toward the camera along −d.
+            w = T * phase_eval(pkind, g, -(lx * dx + ly * dy + lz * dz))
+            sr += er * w
+            sg += eg * w
+            sb += eb * w
+    return sr, sg, sb, dim
+
+
+@scalar
+def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
+               lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, pixel, sample):
+    """One path sample of pixel (i, j) (see the module docstring).
+
+    Returns ``(r, g, b, hit)``: the radiance estimate and 1.0 when the primary ray collided.
+    """
+    k = key(seed, pixel, sample)
+    dim = 0
+    ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, width, height)
+    br = 1.0
+    bgc = 1.0
+    bb = 1.0
+    lr = 0.0
+    lg = 0.0
+    lb = 0.0
+    hit = 0.0
+    depth = 0
+    while True:
+        # Free flight through the medium's box.
+        px, py, pz = affine_point(w2i, ox, oy, oz)
+        qx, qy, qz = affine_vector(w2i, dx, dy, dz)
+        t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+        t0 = max(t0, 0.0)
+        collided = False
+        t = t1
+        k0 = 0
+        k1 = 0
+        f = 0.0
+        if t0 < t1:
+            collided, t, _, k0, k1, f, dim = delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo,
+                                                         lut_inv, maj, block, k, dim)
+        if not collided:
+            # Escaped: only the primary ray sees the background.
+            if depth == 0:
+                lr += bg[0]
+                lg += bg[1]
+                lb += bg[2]
+            break
+        if depth == 0:
+            hit = 1.0
+        depth += 1
+        x = px + t * qx
+        y = py + t * qy
+        z = pz + t * qz
+        wx = ox + t * dx
+        wy = oy + t * dy
+        wz = oz + t * dz
+        ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z)
+        # Emission: collision density σt·T, so weight σa/σt = 1 − a.
+        lr += br * (1.0 - ar) * er
+        lg += bgc * (1.0 - ag) * eg
+        lb += bb * (1.0 - ab) * eb
+        # Scattering weight; nothing more to gather where the medium does not scatter.
+        br *= ar
+        bgc *= ag
+        bb *= ab
+        q = max(br, max(bgc, bb))
+        if q <= 0.0:
+            break
+        # Next-event estimation to every light.
+        nr, ng, nb, dim = direct_light_nee(wx, wy, wz, dx, dy, dz, w2i, lo, hi, mode, field, table, lut_lo, lut_inv,
+                                           maj, block, lkind, lvec, lpow, pkind, g, d2min, k, dim)
+        lr += br * nr
+        lg += bgc * ng
+        lb += bb * nb
+        if depth >= max_depth:
+            break
+        # Russian roulette on the throughput after rr_depth collisions.
+        if depth >= rr_depth and q < 1.0:
+            u = draw(k, dim)
+            dim += 1
+            if u >= q:
+                break
+            br /= q
+            bgc /= q
+            bb /= q
+        # Sample the scattered direction from the phase function (weight p/pdf = 1).
+        u1 = draw(k, dim)
+        u2 = draw(k, dim + 1)
+        dim += 2
+        dx, dy, dz, _ = phase_sample(pkind, g, u1, u2, dx, dy, dz)
+        # Renormalise so rounding cannot drift over many bounces.
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx *= inv
+        dy *= inv
+        dz *= inv
+        ox = wx
+        oy = wy
+        oz = wz
+    return lr, lg, lb, hit
+
+
+@driver
+def pathtrace_image(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                    lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, row0, row1,
+                    sum_rad, sum_sq, sum_hit):
+    """Add samples ``[s0, s1)`` of every pixel in rows ``[row0, row1)`` to the float64 sums
+    ``sum_rad`` and ``sum_sq`` (H, W, 3: Σx, Σx²) and ``sum_hit`` (H, W).
+
+    Each pixel's samples are accumulated in order by one thread: bitwise the same for any
+    thread count.
+    """
+    H, W = sum_hit.shape
+    for j in prange(row0, row1):
+        for i in range(W):
+            pixel = j * W + i
+            for s in range(s0, s1):
+                r, gg, b, h = trace_path(cam, i, j, W, H, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj,
+                                         block, lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed,
+                                         pixel, s)
+                sum_rad[j, i, 0] += r
+                sum_rad[j, i, 1] += gg
+                sum_rad[j, i, 2] += b
+                sum_sq[j, i, 0] += r * r
+                sum_sq[j, i, 1] += gg * gg
+                sum_sq[j, i, 2] += b * b
+                sum_hit[j, i] += h
