@@ -163,6 +163,9 @@ def compare(grid, transfer_function=None, *, camera=None, models=("emission_abso
         VTK's mapper for the first panel.
     titles : bool, default: True
         Label each panel.
+    display : dict, optional
+        Display conversion of our panels (``exposure``, ``tonemap``, ``srgb``), for all panels,
+        or per model: ``{"ambient_scattering": {"exposure": 2.0}}``.
     off_screen : bool, optional
         Passed to ``pyvista.Plotter`` (PyVista's global setting when None).
 
@@ -201,7 +204,10 @@ def compare(grid, transfer_function=None, *, camera=None, models=("emission_abso
         pl.subplot(0, k)
         res = r.render(camera=cam, window_size=(w, h), model=model, step=step, **render_options)
         pl.results[model] = res
-        add_result_plane(pl, res, **(display or {}))
+        disp = display or {}
+        if any(k in MODEL_TITLES for k in disp):
+            disp = disp.get(model, {})
+        add_result_plane(pl, res, **disp)
         pl.camera_set = True
         if titles:
             pl.add_text(MODEL_TITLES.get(model, model), font_size=9, color="white")

@@ -18,7 +18,7 @@ from .lights import as_lights, pack_lights
 from .result import RenderResult
 from .transfer import as_transfer_function
 
-MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering")
+MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering", "path_traced")
 MODEL_IDS = {"emission_absorption": 0, "ambient_occlusion": 1, "single_scattering": 2, "ambient_scattering": 3,
              "diffusion": 4}
 #: Optical depth above which a light counts as blocked (e^-700 underflows double precision soon after).
@@ -36,7 +36,16 @@ QUALITY_STEP = {"preview": 1.0, "balanced": 0.5, "accurate": 0.25}
 MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited", "backend",
                  "target_error"}
 #: Every option a scene file may carry at top level besides the common ones.
-SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance"}
+SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
+#: Light propagation modes of ambient scattering (DESIGN §4.3) and the default.
+PROPAGATION_MODES = ("beer_lambert", "tube")
+DEFAULT_PROPAGATION = "beer_lambert"
+#: Default ambient radius per model, in units of the largest grid spacing. For ambient scattering,
+#: 8 voxels with Beer–Lambert fronts measured closest to the path-traced reference on all three
+#: scenes of ``benchmarks/trade.py`` (radii 2, 4, 8 × both modes; README, "The trade").
+DEFAULT_RADIUS_VOXELS = {"ambient_scattering": 8.0, "auto": 8.0, "ambient_occlusion": 4.0}
+_DUMMY3 = np.zeros((1, 1, 1), np.float32)
+_DUMMY1 = np.zeros(1, np.float64)
 
 
 def _tiles(n, count):
@@ -152,13 +161,30 @@ class Renderer:
             self.timings[f"light volume {light}"] = time.perf_counter() - t
         return self._cache[key]
 
+    def _scattering_nodes(self, grid):
+        """Light-grid node indices (nearest node) of the data samples that scatter (σt·albedo > 0)."""
+        key = ("scattering_nodes", grid.key())
+        if key not in self._cache:
+            sig = self.optics.sigma_grid()
+            alb = self.optics.albedo_grid()
+            mask = (sig > 0) & (alb.max(axis=-1) > 0)
+            idx = np.nonzero(mask)
+            nodes = tuple(np.clip(np.rint((i - grid.lo[a]) * grid.inv_step[a]).astype(np.intp), 0, grid.shape[a] - 1)
+                          for a, i in enumerate(idx))
+            self._cache[key] = nodes
+        return self._cache[key]
+
     def active_lights(self, grid):
-        """Lights that can reach the medium: non-zero power and transmittance not zero everywhere."""
+        """Lights that reach the scattering medium: non-zero power, and optical depth below
+        ``TAU_OPAQUE`` at some sample that scatters (σt·albedo > 0)."""
         out = []
+        nodes = self._scattering_nodes(grid)
+        if nodes[0].size == 0:
+            return ()
         for lt in self.lights:
             if max(lt.power) <= 0.0:
                 continue
-            if float(np.min(self.optical_depth(lt, grid))) > TAU_OPAQUE:
+            if float(np.min(self.optical_depth(lt, grid)[nodes])) > TAU_OPAQUE:
                 continue
             out.append(lt)
         return tuple(out)
@@ -182,6 +208,66 @@ class Renderer:
             self._cache[key] = out
         return self._cache[key]
 
+    def albedo_range(self, radius):
+        """(min, max) of the ball-mean albedo ā over the medium (where σ̄ > 0), all channels."""
+        ball = self.ball_grid(radius)
+        inside = ball[..., 0] > 0
+        if not inside.any():
+            return 0.0, 0.0
+        a = ball[..., 1:4][inside]
+        return float(a.min()), float(a.max())
+
+    def table(self, phase, radius, quality="balanced", progress_bar=False):
+        """The preintegrated D/F slice for ``phase`` and the albedo range the scene needs (cached)."""
+        from .preintegration import albedo_nodes_for, get_table
+
+        lo, hi = self.albedo_range(radius)
+        # keyed on the albedo nodes the range needs: nearby ranges share one slice
+        key = ("table", phase.kind, float(phase.g), tuple(albedo_nodes_for(lo, hi).tolist()), quality)
+        if key not in self._cache:
+            t = time.perf_counter()
+            self._cache[key] = get_table(phase, albedo_range=(lo, hi), quality=quality, progress_bar=progress_bar)
+            self.timings["table"] = time.perf_counter() - t
+        return self._cache[key]
+
+    def front_depth(self, light, grid, radius, table):
+        """Tube-mode front optical depth per channel, (m0, m1, m2, 3) float32 (cached per light, r, table)."""
+        from .propagation import optical_depth, tube_extinction
+
+        key = ("front", light, grid.key(), float(radius), id(table))
+        if key not in self._cache:
+            t = time.perf_counter()
+            rho = tube_extinction(self._ball_on_light_grid(radius, grid), grid, radius, table)
+            out = np.empty_like(rho)
+            for c in range(3):
+                out[..., c] = optical_depth(np.ascontiguousarray(rho[..., c]), grid, self.geometry, light)
+            self._cache[key] = out
+            self.timings[f"front volume {light}"] = time.perf_counter() - t
+        return self._cache[key]
+
+    def _ball_on_light_grid(self, radius, grid):
+        """The ball grid with σ̄ averaged over the part of the ball inside the grid.
+
+        The tube march (DESIGN §4.3) starts where the light enters the medium, so its balls never
+        straddle the entry face; averaging over the inside part gives the continuous march the
+        same property (homogeneous medium, albedo 0: Φ equals Beer–Lambert exactly).
+        """
+        key = ("ball_inside", float(radius))
+        if key not in self._cache:
+            ball = self.ball_grid(radius).copy()
+            if radius > 0:
+                half = 0.5 * radius * (4.0 * np.pi / 3.0) ** (1.0 / 3.0) / self.geometry.spacing
+                frac = np.ones(ball.shape[:3])
+                for ax, n in enumerate(ball.shape[:3]):
+                    i = np.arange(n, dtype=np.float64)
+                    inside = np.clip(np.minimum(i + half[ax], n - 0.5) - np.maximum(i - half[ax], -0.5), 0.0, None)
+                    shape = [1, 1, 1]
+                    shape[ax] = n
+                    frac = frac * (inside / (2.0 * half[ax])).reshape(shape)
+                ball[..., 0] = (ball[..., 0] / np.maximum(frac, 1e-12)).astype(np.float32)
+            self._cache[key] = ball
+        return self._cache[key]
+
     def resolve_model(self, model, grid=None):
         """The model ``auto`` stands for (rules in :meth:`render`)."""
         if model != "auto":
@@ -194,7 +280,7 @@ class Renderer:
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
-               **model_options) -> RenderResult:
+               propagation=DEFAULT_PROPAGATION, table_quality="balanced", **model_options) -> RenderResult:
         """Render one image.
 
         Parameters
@@ -205,12 +291,18 @@ class Renderer:
             ``(width, height)``; the plotter's when a plotter is given, else (512, 512).
         model : str, default: "emission_absorption"
             ``"emission_absorption"``, ``"ambient_occlusion"``, ``"single_scattering"``,
-            ``"ambient_scattering"`` or ``"auto"``. ``auto`` picks the cheapest model that
-            represents the scene: without scattering (albedo 0 wherever σt > 0) or without a
-            light that reaches the medium it is ``single_scattering`` with no light volumes
-            (emission and absorption only); otherwise ``ambient_scattering``. Lights with zero
-            power, or behind an opaque wall (optical depth > 700 everywhere), are skipped by
-            every model.
+            ``"ambient_scattering"``, ``"path_traced"`` (the Monte Carlo reference,
+            :func:`pv_ambient.reference.path_trace`; options ``samples_per_pixel``,
+            ``target_error``, ``max_depth``) or ``"auto"``. ``auto`` picks the cheapest model
+            that represents the scene, by these rules (each tested):
+
+            1. no scattering (albedo 0 wherever σt > 0): ``single_scattering`` with no light
+               volume built — emission and absorption only;
+            2. lights with zero intensity, or whose optical depth exceeds 700 at every sample
+               that scatters (behind an opaque wall), are dropped (by every model);
+            3. no light left: ``single_scattering`` (emission and absorption only);
+            4. otherwise ``ambient_scattering``; an isotropic phase function uses a 1D table
+               slice (D does not depend on θ).
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (the ray step: 1, ½, ¼ of the smallest
             grid spacing).
@@ -226,12 +318,20 @@ class Renderer:
         phase : PhaseFunction, float or dict, optional
             Phase function of the scattering models (isotropic when None).
         radius : float, optional
-            Ambient radius r in world units (ambient occlusion / scattering); default 4 data
-            spacings. A string like ``"4 voxels"`` gives it in units of the largest spacing.
+            Ambient radius r in world units (ambient occlusion / scattering); default 8 data
+            spacings for ambient scattering (the measured best, ``DEFAULT_RADIUS_VOXELS``) and 4
+            for ambient occlusion. A string like ``"4 voxels"`` gives it in units of the largest spacing.
         light_resolution : float, optional
             Light-grid nodes per data spacing (DESIGN §4.3 default when None).
         ambient_radiance : float, default: 1.0
             Uniform ambient radiance of ``ambient_occlusion``.
+        propagation : {"beer_lambert", "tube"}, default: "beer_lambert"
+            How ``ambient_scattering`` attenuates the light front arriving at each ball
+            (DESIGN §4.3): Beer–Lambert transmittance to the ball's entry point, or the paper's
+            tube march through balls (soft shadows). The default is the one measured closer to
+            the path-traced reference.
+        table_quality : {"preview", "balanced", "accurate"}, default: "balanced"
+            Monte Carlo effort of the preintegrated table slice (computed once, cached on disk).
         progress_bar : bool, default: False
             Show a tqdm progress bar over image tiles.
         **model_options
@@ -247,6 +347,8 @@ class Renderer:
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
         check_choice(model, "model", ALL_MODELS)
         check_choice(quality, "quality", tuple(QUALITY_STEP))
+        check_choice(propagation, "propagation", PROPAGATION_MODES)
+        check_choice(table_quality, "table_quality", tuple(QUALITY_STEP))
         unknown = set(model_options) - MODEL_OPTIONS
         if unknown:
             raise TypeError(f"render() got unknown options {sorted(unknown)}; model options are {sorted(MODEL_OPTIONS)}")
@@ -259,7 +361,9 @@ class Renderer:
         ert = check_real(early_termination, "early_termination", lo=0.0, hi=1.0)
         amb = check_real(ambient_radiance, "ambient_radiance", lo=0.0)
         ph = as_phase(phase)
-        radius = self._radius(radius)
+        radius = self._radius(radius, model)
+        if model == "path_traced":
+            return self._path_trace(cam, size, ph, step, seed, bg, progress_bar, model_options)
         t_start = time.perf_counter()
         requested = model
         grid = self.light_grid(light_resolution) if model != "emission_absorption" else None
@@ -274,32 +378,53 @@ class Renderer:
             lights = ()
         taus = [self.optical_depth(lt, grid) for lt in lights]
         ball = self.ball_grid(radius) if model in ("ambient_occlusion", "ambient_scattering") else _DUMMY4
+        tab_args = (_DUMMY4, _DUMMY3, _DUMMY1, 0.0, 1.0)
+        phi = _DUMMY4
+        if model == "ambient_scattering" and lights:
+            tab = self.table(ph, radius, quality=table_quality, progress_bar=progress_bar)
+            D, F_diff, a_nodes, lo_log, dlog = tab.lookup_args()
+            tab_args = (_DUMMY4, D, a_nodes, lo_log, dlog)
+            if propagation == "tube":
+                phi = np.concatenate([self.front_depth(lt, grid, radius, tab) for lt in lights], axis=-1)
+            else:
+                phi = None  # the τ grids themselves, read at the ball's entry point
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
             kind, vec, power = pack_lights(lights)
             tau = np.stack(taus, axis=-1) if taus else _DUMMY4
+            tab_args = (tau if phi is None else phi,) + tab_args[1:]
             lg = grid if grid is not None else _NO_GRID
             o = self.optics
             g = self.geometry
             args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg)
             medium = (o.mode, o.field, o.table, o.lut_lo, o.lut_inv, o.aux, self.majorant(), MAJORANT_BLOCK)
             light_args = (kind, vec, power, lg.lo, lg.inv_step, tau, ph.kind, float(ph.g), (0.25 * step) ** 2)
-            self._run_tiles(MODEL_IDS[model], args, medium, light_args, (radius, ball, amb), rad, alpha,
-                            progress_bar, model)
+            self._run_tiles(MODEL_IDS[model], args, medium, light_args, (radius, ball, amb) + tab_args, rad,
+                            alpha, progress_bar, model)
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": requested, "quality": quality, "step": step,
                 "window_size": size, "jitter": bool(jitter), "seed": seed, "backend": "cpu",
                 "lights": len(lights), "radius": radius, "phase": repr(ph),
+                "propagation": propagation if model == "ambient_scattering" else None,
                 "light_grid": None if grid is None else grid.shape,
                 "time_prepare": t_prep, "time_render": time.perf_counter() - t_start - t_prep,
                 "early_termination": ert}
         return RenderResult(radiance=rad, alpha=alpha, camera=cam, metadata=meta)
 
-    def _radius(self, radius):
+    def _path_trace(self, cam, size, ph, step, seed, bg, progress_bar, options):
+        from .reference import path_trace
+
+        if options.get("denoise"):
+            raise ValueError("denoise=True needs the optional 'pyoidn' extra, which is not wired in yet")
+        return path_trace(self, cam, size, phase=ph, samples_per_pixel=options.get("samples_per_pixel", 64),
+                          target_error=options.get("target_error"), max_depth=options.get("max_depth"), seed=seed,
+                          background=bg, progress_bar=progress_bar, light_clamp=0.25 * step)
+
+    def _radius(self, radius, model="ambient_scattering"):
         h = float(np.max(self.geometry.spacing))
         if radius is None:
-            return 4.0 * h
+            return DEFAULT_RADIUS_VOXELS.get(model, 4.0) * h
         if isinstance(radius, str):
             parts = radius.split()
             if len(parts) == 2 and parts[1] in ("voxel", "voxels"):

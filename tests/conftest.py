@@ -4,3 +4,6 @@ import os
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 os.environ.setdefault("MPLBACKEND", "Agg")
+# Preintegrated table slices computed by the tests are cached inside the checkout (ignored by
+# git), never in the user's cache directory.
+os.environ.setdefault("PV_AMBIENT_CACHE", os.path.join(os.path.dirname(os.path.dirname(__file__)), ".cache", "tables"))

@@ -20,8 +20,9 @@ import math
 
 from ._jit import driver, prange, scalar
 from .geometry import ray_box
-from .interp import trilinear
+from .interp import trilinear, trilinear_c
 from .medium import sigma_at
+from .preint import f_lookup
 
 
 @driver
@@ -209,3 +210,26 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
 def light_coords(lo, inv_step, x, y, z):
     """Light-grid coordinates of data-index point (x, y, z)."""
     return (x - lo[0]) * inv_step[0], (y - lo[1]) * inv_step[1], (z - lo[2]) * inv_step[2]
+
+
+@driver
+def tube_density(ball, lo, step, radius, F_diff, a_nodes, tau_lo_log, tau_dlog, out):
+    """Tube-march extinction per channel at every light-grid node: ``−ln F(r σ̄, ā_c) / (2r)``.
+
+    ``ball`` holds (σ̄, ā rgb) at data samples; ``out`` is (m0, m1, m2, 3). Integrated along the
+    light's rays by the same sweep as σt, it gives the tube front's optical depth (see
+    :mod:`pv_ambient.propagation`).
+    """
+    m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
+    inv2r = 0.5 / radius
+    for k in prange(m2):
+        z = lo[2] + k * step[2]
+        for j in range(m1):
+            y = lo[1] + j * step[1]
+            for i in range(m0):
+                x = lo[0] + i * step[0]
+                tau = radius * trilinear_c(ball, x, y, z, 0)
+                for c in range(3):
+                    f = f_lookup(F_diff, a_nodes, tau_lo_log, tau_dlog, tau, trilinear_c(ball, x, y, z, 1 + c))
+                    f = min(max(f, 1e-300), 1.0)
+                    out[i, j, k, c] = -math.log(f) * inv2r

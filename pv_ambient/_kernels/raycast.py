@@ -23,10 +23,11 @@ import math
 
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .interp import trilinear, trilinear_c
+from .interp import trilinear, trilinear4, trilinear_c
 from .majorant import block_exit, block_of
 from .medium import MODE_GRID, lut_coords, lut_value
 from .phase import phase_eval
+from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
 
 STREAM_JITTER = 1
@@ -110,11 +111,88 @@ def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo, linv, 
     return sr, sg, sb
 
 
+@scalar
+def _d_at(D, ia, it, tt, jt, st):
+    n_t = D.shape[2]
+    jt1 = min(jt + 1, n_t - 1)
+    return ((1.0 - tt) * ((1.0 - st) * D[ia, it, jt] + st * D[ia, it, jt1])
+            + tt * ((1.0 - st) * D[ia, it + 1, jt] + st * D[ia, it + 1, jt1]))
+
+
+@scalar
+def _d_albedo(D, a_nodes, it, tt, jt, st, a):
+    ia, ta = albedo_coord(a_nodes, a)
+    lo = _d_at(D, ia, it, tt, jt, st)
+    if ta == 0.0:
+        return lo
+    return (1.0 - ta) * lo + ta * _d_at(D, min(ia + 1, D.shape[0] - 1), it, tt, jt, st)
+
+
+@scalar
+def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
+    """D at one (θ, τ) for three albedos (rgb): :func:`pv_ambient._kernels.preint.d_lookup` with
+    the τ and θ coordinates located once (``it, tt`` from ``tau_coord``)."""
+    jt, st = theta_coord(D.shape[2], cos_theta)
+    dr = _d_albedo(D, a_nodes, it, tt, jt, st, ar)
+    dg = dr if ag == ar else _d_albedo(D, a_nodes, it, tt, jt, st, ag)
+    if ab == ar:
+        db = dr
+    elif ab == ag:
+        db = dg
+    else:
+        db = _d_albedo(D, a_nodes, it, tt, jt, st, ab)
+    return dr, dg, db
+
+
+@scalar
+def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, linv, phi, radius, tau_b,
+                  abr, abg, abb, D, a_nodes, tau_lo_log, tau_dlog, d2min):
+    """Σ_j E_j Φ_j D(θ_j, r σ̄, ā) (rgb): light scattered at least once inside the ball (DESIGN §4.4).
+
+    Φ_j is read at the ball's entry point ``x − s·ω_j`` (s = r, or the distance to a point light
+    when that is shorter) from the front optical depth ``phi``: one component per light (grey,
+    Beer–Lambert mode) or three per light (per channel, tube mode).
+    """
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    nl = lkind.shape[0]
+    nch = phi.shape[3] // nl
+    it, tt = tau_coord(D.shape[1], tau_lo_log, tau_dlog, tau_b)
+    for l in range(nl):
+        er, eg, eb, ox, oy, oz = light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min)
+        s = radius
+        if lkind[l] == 0:
+            vx = wx - lvec[l, 0]
+            vy = wy - lvec[l, 1]
+            vz = wz - lvec[l, 2]
+            s = min(s, math.sqrt(vx * vx + vy * vy + vz * vz))
+        qx, qy, qz = affine_vector(w2i, ox, oy, oz)
+        lx = (x - s * qx - llo[0]) * linv[0]
+        ly = (y - s * qy - llo[1]) * linv[1]
+        lz = (z - s * qz - llo[2]) * linv[2]
+        c = -(ox * dx + oy * dy + oz * dz)
+        if nch == 1:
+            fr = math.exp(-trilinear_c(phi, lx, ly, lz, l))
+            fg = fr
+            fb = fr
+        else:
+            fr = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l))
+            fg = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 1))
+            fb = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 2))
+        dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
+        sr += er * fr * dr
+        sg += eg * fg * dg
+        sb += eb * fb * db
+    return sr, sg, sb
+
+
 @driver
 def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, row0, row1,
                   mode, field, table, lut_lo, lut_inv, aux, maj, block,
                   lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
                   radius, ball, amb,
+                  phi, D, a_nodes, tau_lo_log, tau_dlog,
                   out_rad, out_alpha):
     """Render rows [row0, row1) of the image with ray-cast ``model`` (see the module docstring)."""
     H, W = out_alpha.shape
@@ -172,6 +250,14 @@ def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, row0, ro
                             wz = oz + tm * dz
                             lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo,
                                                       linv, tau, pkind, g, d2min)
+                            if model == AMBIENT_SCATTERING:
+                                bs, b1, b2, b3 = trilinear4(ball, x, y, z)
+                                mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow,
+                                                           llo, linv, phi, radius, radius * bs, b1, b2, b3,
+                                                           D, a_nodes, tau_lo_log, tau_dlog, d2min)
+                                lr += mr
+                                lg += mg
+                                lb += mb
                             sr = ar * lr + (1.0 - ar) * er
                             sg = ag * lg + (1.0 - ag) * eg
                             sb = ab * lb + (1.0 - ab) * eb

@@ -1,0 +1,215 @@
+"""The speed–accuracy trade (DESIGN §6): every model and preset against a converged path-traced
+reference, timed against VTK's emission–absorption render measured in the same run.
+
+For each synthetic scene (supernova shell lit from its centre, a forward-scattering cloud under a
+point light, a CT-like phantom with two coloured point lights):
+
+* a ``path_traced`` reference to ``--ref-error`` relative standard error (its 4×4-block noise is
+  printed: it must stay well below the errors it measures);
+* VTK ``fixed_point`` EA of the same TF and camera: the time unit;
+* ``single_scattering`` at each quality preset, ``ambient_scattering`` for both propagation modes
+  and several radii, ``path_traced`` at 1, 2, 4, … spp (no denoiser): first-frame time (all caches
+  cold but Numba compiled) and camera-move time (caches warm), median of ``--repeats``, as ratios
+  to the VTK frame; 4×4-block and per-pixel relative RMSE, relative bias of the mean, SSIM, each
+  against the reference with a small window around each light's projection masked;
+* the time the path tracer needs for the same block error (interpolated on its own curve).
+
+Writes ``trade.csv`` and ``trade.png`` (error vs time, one curve per model: the Pareto front) to
+``--out``. Usage: ``python benchmarks/trade.py [--size 96] [--n 64] [--ref-error 0.01]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import time
+from pathlib import Path
+
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+
+import pv_ambient as pa  # noqa: E402
+from pv_ambient import datasets, metrics  # noqa: E402
+
+
+def scenes(n):
+    """(name, grid, transfer function, lights, phase, camera)."""
+    out = []
+    g = datasets.supernova(n=n)
+    st = datasets.suggested_style("supernova")
+    # the light sits in the shell's faint interior, off the dense core (a light inside the core
+    # makes the reference's variance explode: next-event estimates from vertices next to it)
+    out.append(("supernova", g, pa.TransferFunction(**st, albedo=0.9), [pa.PointLight((0.0, 0.0, 0.35), intensity=3.0)],
+                0.0, pa.Camera((0.0, -3.6, 0.6), (0, 0, 0), (0, 0, 1), view_angle=30)))
+    g = datasets.cloud(n=n)
+    st = datasets.suggested_style("cloud")
+    out.append(("cloud", g, pa.TransferFunction(**{**st, "density_scale": 8.0}, albedo=0.95),
+                [pa.PointLight((0.4, 0.6, 2.2), intensity=6.0)], 0.6,
+                pa.Camera((0.0, -3.6, 0.8), (0, 0, 0), (0, 0, 1), view_angle=30)))
+    g = datasets.ct_phantom(n=n)
+    st = datasets.suggested_style("ct_phantom")
+    out.append(("ct_phantom", g, pa.TransferFunction(**st, albedo=0.8),
+                [pa.PointLight((1.6, -1.2, 0.8), intensity=(5.0, 2.0, 1.0)),
+                 pa.PointLight((-1.6, -1.2, -0.4), intensity=(1.0, 2.0, 5.0))], 0.3,
+                pa.Camera((0.0, -3.6, 0.4), (0, 0, 0), (0, 0, 1), view_angle=30)))
+    return out
+
+
+def vtk_time(grid, r, cam, size, step, repeats):
+    import pyvista as pv
+
+    from pv_ambient.pyvista_ext import add_vtk_volume
+
+    pl = pv.Plotter(off_screen=True, window_size=size)
+    add_vtk_volume(pl, grid, r, step=step, mapper="fixed_point")
+    cam.to_vtk(pl.camera)
+    pl.renderer.ResetCameraClippingRange()
+    pl.render()
+    times = []
+    for _ in range(repeats):
+        pl.camera.Azimuth(0.5)  # VTK skips a render when nothing changed
+        pl.renderer.ResetCameraClippingRange()
+        t = time.perf_counter()
+        pl.ren_win.Render()
+        times.append(time.perf_counter() - t)
+    pl.close()
+    return float(np.median(times))
+
+
+def configurations(quick):
+    cfg = [("single_scattering", q, {"quality": q}) for q in ("preview", "balanced", "accurate")]
+    radii = (2, 4, 8) if not quick else (4,)
+    for prop in ("beer_lambert", "tube"):
+        for rv in radii:
+            cfg.append(("ambient_scattering", f"{prop} r={rv}", {"quality": "balanced", "propagation": prop,
+                                                               "radius": f"{rv} voxels"}))
+    return cfg
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, default=96)
+    ap.add_argument("--n", type=int, default=64)
+    ap.add_argument("--ref-error", type=float, default=0.01)
+    ap.add_argument("--ref-max-spp", type=int, default=8192)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--scenes", nargs="+", default=None)
+    ap.add_argument("--quick", action="store_true", help="fewer configurations")
+    ap.add_argument("--out", default="benchmark_output")
+    args = ap.parse_args(argv)
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    size = (args.size, args.size)
+    rows = []
+    for name, grid, tf, lights, g, cam in scenes(args.n):
+        if args.scenes and name not in args.scenes:
+            continue
+        r = pa.Renderer(grid, transfer_function=tf, lights=lights)
+        step = r.default_step()
+        t_vtk = vtk_time(grid, r, cam, size, step, args.repeats)
+        t0 = time.perf_counter()
+        ref = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=12345,
+                       samples_per_pixel=args.ref_max_spp, target_error=args.ref_error)
+        t_ref = time.perf_counter() - t0
+        mask = metrics.light_mask(size[::-1], cam, size, lights)
+        # block noise of the reference: its standard error averaged over 4x4 blocks, relative
+        ref_block_noise = float(np.sqrt(np.mean(ref.std_error[mask] ** 2) / 16) / np.mean(ref.radiance[mask]))
+        print(f"\n{name}: reference {ref.metadata['spp']} spp in {t_ref:.1f} s, block noise {ref_block_noise:.4f};"
+              f" VTK fixed_point EA frame {t_vtk * 1e3:.1f} ms")
+        print(f"  {'model':20s} {'preset':18s} {'first/VTK':>9} {'move/VTK':>9} {'blockRMSE':>9} {'pixRMSE':>8}"
+              f" {'bias':>7} {'SSIM':>6} {'PT same err/VTK':>15}")
+
+        def score(img):
+            return (metrics.block_relative_rmse(img, ref.radiance, mask), metrics.relative_rmse(img, ref.radiance, mask),
+                    metrics.relative_bias(img, ref.radiance, mask), metrics.ssim(img, ref.radiance))
+
+        # path tracer curve (no denoiser), each point its own seed
+        pt = []
+        spp = 1
+        while spp <= 256:
+            times = []
+            for k in range(args.repeats):
+                t = time.perf_counter()
+                res = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=k + 1,
+                               samples_per_pixel=spp)
+                times.append(time.perf_counter() - t)
+            tm = float(np.median(times))
+            sc = score(res.radiance)
+            pt.append((tm, sc[0]))
+            rows.append(dict(scene=name, model="path_traced", preset=f"{spp} spp", first=tm / t_vtk, move=tm / t_vtk,
+                             block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2], ssim=sc[3], pt_same=tm / t_vtk))
+            spp *= 2
+
+        def pt_time_for(err):
+            ts, es = np.array([p[0] for p in pt]), np.array([p[1] for p in pt])
+            if err >= es[0]:
+                return ts[0] * es[0] ** 2 / err ** 2 if err > 0 else np.inf  # error ∝ 1/sqrt(time)
+            if err < es[-1]:
+                return ts[-1] * (es[-1] / err) ** 2
+            k = np.nonzero(es <= err)[0][0]
+            return float(np.exp(np.interp(np.log(err), np.log(es[[k, k - 1]]), np.log(ts[[k, k - 1]]))))
+
+        for model, preset, opts in configurations(args.quick):
+            r2 = pa.Renderer(grid, transfer_function=tf, lights=lights)
+            r2._cache.update({k: v for k, v in r._cache.items() if k[0] == "table"})  # disk cache's role
+            t = time.perf_counter()
+            res = r2.render(camera=cam, window_size=size, model=model, phase=g, **opts)
+            t_first = time.perf_counter() - t
+            times = []
+            for _ in range(args.repeats):
+                t = time.perf_counter()
+                res = r2.render(camera=cam, window_size=size, model=model, phase=g, **opts)
+                times.append(time.perf_counter() - t)
+            r._cache.update({k: v for k, v in r2._cache.items() if k[0] == "table"})
+            t_move = float(np.median(times))
+            sc = score(res.radiance)
+            t_pt = pt_time_for(sc[0])
+            rows.append(dict(scene=name, model=model, preset=preset, first=t_first / t_vtk, move=t_move / t_vtk,
+                             block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2], ssim=sc[3], pt_same=t_pt / t_vtk))
+            print(f"  {model:20s} {preset:18s} {t_first / t_vtk:>9.2f} {t_move / t_vtk:>9.2f} {sc[0]:>9.3f}"
+                  f" {sc[1]:>8.3f} {sc[2]:>+7.3f} {sc[3]:>6.3f} {t_pt / t_vtk:>15.2f}")
+        for row in rows:
+            if row["scene"] == name and row["model"] == "path_traced":
+                print(f"  {'path_traced':20s} {row['preset']:18s} {row['first']:>9.2f} {row['move']:>9.2f}"
+                      f" {row['block_rmse']:>9.3f} {row['pixel_rmse']:>8.3f} {row['bias']:>+7.3f} {row['ssim']:>6.3f}")
+    with open(outdir / "trade.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    plot(rows, outdir / "trade.png")
+    print(f"\nwrote {outdir / 'trade.csv'} and {outdir / 'trade.png'}")
+
+
+def plot(rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = sorted({r["scene"] for r in rows}, key=[r["scene"] for r in rows].index)
+    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.6), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        sub = [r for r in rows if r["scene"] == name]
+        groups = {}
+        for r in sub:
+            label = r["model"] if r["model"] != "ambient_scattering" else "AS " + r["preset"].split()[0]
+            groups.setdefault(label, []).append(r)
+        for label, rs in groups.items():
+            x = [r["move"] for r in rs]
+            y = [r["block_rmse"] for r in rs]
+            style = "-o" if label == "path_traced" else "o"
+            ax.loglog(x, y, style, label=label, ms=4)
+        ax.set_title(name)
+        ax.set_xlabel("camera-move frame time / VTK EA frame")
+        ax.set_ylabel("4×4-block relative RMSE")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+if __name__ == "__main__":
+    main()

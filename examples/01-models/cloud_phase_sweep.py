@@ -1,0 +1,40 @@
+"""
+.. _cloud_phase_sweep_example:
+
+A cloud seen against the light: g = −0.5, 0, 0.6
+================================================
+
+The phase function decides how much light a cloud sends toward a camera that looks toward the
+light. Forward scattering (g > 0, Henyey–Greenstein) brightens the silver lining; backward
+scattering (g < 0) darkens it.
+"""
+
+# %%
+import os
+
+import pyvista as pv
+
+import pv_ambient as pa
+from pv_ambient import datasets
+
+pv.OFF_SCREEN = True
+OUT = os.environ.get("PV_AMBIENT_EXAMPLES_OUT", ".")
+
+grid = datasets.cloud(n=80)
+tf = pa.TransferFunction(**{**datasets.suggested_style("cloud"), "density_scale": 8.0}, albedo=0.95)
+# the light is behind the cloud, slightly above: the camera looks toward it
+light = pa.PointLight((0.2, 2.6, 0.9), intensity=8.0)
+r = pa.Renderer(grid, transfer_function=tf, lights=[light])
+cam = pa.Camera((0.0, -3.6, 0.3), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=30.0)
+
+# %%
+size = (360, 360)
+pl = pv.Plotter(shape=(1, 3), window_size=(3 * size[0], size[1]), border=False, off_screen=True)
+for k, g in enumerate((-0.5, 0.0, 0.6)):
+    res = r.render(camera=cam, window_size=size, model="ambient_scattering", phase=g)
+    print(f"g = {g:+.1f}: mean radiance {res.radiance.mean():.4f}")
+    pl.subplot(0, k)
+    pa.pyvista_ext.add_result_plane(pl, res, exposure=1.0, tonemap="reinhard", srgb=True)
+    pl.add_text(f"g = {g:+.1f}", font_size=10, color="white")
+pl.screenshot(os.path.join(OUT, "cloud_phase_sweep.png"))
+pl.close()

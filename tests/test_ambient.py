@@ -1,0 +1,204 @@
+"""Ambient occlusion and ambient scattering (DESIGN §4.4, §4.5): consistency with the models they
+reduce to, caching, the ``auto`` rules. Accuracy against the path-traced reference is measured by
+``benchmarks/trade.py`` (a benchmark, not a test)."""
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_ambient as pa
+from pv_ambient.camera import Camera
+from pv_ambient.lights import DirectionalLight, PointLight
+
+CAM = Camera((0.2, -4.0, 0.3), (0, 0, 0), (0, 0, 1), view_angle=35)
+SIZE = (24, 20)
+
+
+def physical_grid(n=17, sigma=3.0, albedo=0.9, emission=(0.0, 0.0, 0.0), noise=True, seed=0):
+    """A cloud-like physical medium on [−1, 1]³: σt (1/world unit), RGB albedo, emission."""
+    g = pv.ImageData(dimensions=(n, n, n), spacing=(2 / (n - 1),) * 3, origin=(-1, -1, -1))
+    rng = np.random.default_rng(seed)
+    p = g.points
+    base = np.clip(1.0 - np.linalg.norm(p, axis=1) / 1.1, 0, None)
+    if noise:
+        base *= 0.5 + rng.random(g.n_points)
+    g["sigma_t"] = (sigma * base).astype(np.float32)
+    g["albedo"] = np.tile(np.broadcast_to(np.asarray(albedo, np.float32), (3,)), (g.n_points, 1))
+    g["emission"] = np.tile(np.asarray(emission, np.float32), (g.n_points, 1))
+    return g
+
+
+LIGHTS = [PointLight((0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0)), DirectionalLight((0.2, 0.3, -1.0), irradiance=0.5)]
+
+
+def renderer(grid, lights=LIGHTS):
+    return pa.Renderer(grid, transfer_function=pa.TransferFunction.physical(), lights=lights)
+
+
+def render(r, model, **kw):
+    kw.setdefault("quality", "preview")
+    return r.render(camera=CAM, window_size=SIZE, model=model, **kw).radiance.astype(np.float64)
+
+
+def rel(a, b):
+    return np.abs(a - b).max() / max(np.abs(b).max(), 1e-30)
+
+
+@pytest.mark.parametrize("propagation", ["beer_lambert", "tube"])
+def test_radius_zero_is_single_scattering(propagation):
+    r = renderer(physical_grid())
+    ss = render(r, "single_scattering", phase=0.4)
+    as0 = render(r, "ambient_scattering", phase=0.4, radius=0.0, propagation=propagation)
+    assert ss.max() > 0
+    assert rel(as0, ss) <= 1e-5
+
+
+def test_albedo_zero_is_single_scattering_and_ea():
+    r = renderer(physical_grid(albedo=0.0, emission=(0.5, 0.3, 0.1)))
+    ss = render(r, "single_scattering")
+    amb = render(r, "ambient_scattering", radius="3 voxels")
+    ea = render(r, "emission_absorption")
+    assert ea.max() > 0.05
+    assert rel(amb, ss) <= 1e-5
+    assert rel(amb, ea) <= 1e-5
+
+
+def test_no_lights_no_emission_is_black():
+    r = renderer(physical_grid(), lights=())
+    out = r.render(camera=CAM, window_size=SIZE, model="ambient_scattering", quality="preview")
+    assert np.all(out.radiance == 0) and out.alpha.max() > 0.5
+
+
+@pytest.mark.parametrize("propagation", ["beer_lambert", "tube"])
+def test_multiple_scattering_adds_light(propagation):
+    r = renderer(physical_grid(sigma=8.0, albedo=0.95))
+    ss = render(r, "single_scattering")
+    amb = render(r, "ambient_scattering", radius="4 voxels", propagation=propagation)
+    assert np.all(amb >= ss - 1e-7)  # D ≥ 0 and Φ ≥ 0: the ball only adds light
+    assert (amb - ss).max() > 0.05 * ss.max()
+
+
+def test_optically_thin_limit_is_single_scattering():
+    diffs = []
+    for sigma in (1.0, 0.1, 0.01):
+        r = renderer(physical_grid(sigma=sigma, noise=False))
+        ss = render(r, "single_scattering")
+        amb = render(r, "ambient_scattering", radius="4 voxels")
+        diffs.append(np.abs(amb - ss).sum() / ss.sum())
+    # multiple scattering inside the ball is O(τ): the relative excess falls ~10× per decade
+    assert diffs[0] > diffs[1] > diffs[2]
+    assert diffs[2] < 0.2 * diffs[1] and diffs[1] < 0.2 * diffs[0]
+    assert diffs[2] < 1e-2
+
+
+def test_tube_front_equals_beer_lambert_at_albedo_zero():
+    grid = physical_grid(n=25, sigma=2.0, albedo=0.0, noise=False)
+    grid["sigma_t"] = np.full(grid.n_points, 2.0, np.float32)
+    r = renderer(grid)
+    lg = r.light_grid(1.0)
+    radius = r._radius("3 voxels")
+    tab = r.table(pa.phase.as_phase(None), radius, quality="preview")
+    for light in LIGHTS:
+        tau = r.optical_depth(light, lg)
+        front = r.front_depth(light, lg, radius, tab)
+        for c in range(3):
+            np.testing.assert_allclose(np.exp(-front[..., c]), np.exp(-tau), rtol=1e-3, atol=0)
+
+
+def test_tube_front_in_vacuum_is_one():
+    grid = physical_grid(n=9, sigma=0.0)
+    r = renderer(grid)
+    lg = r.light_grid(1.0)
+    radius = r._radius("2 voxels")
+    tab = r.table(pa.phase.as_phase(None), radius, quality="preview")
+    assert np.all(r.front_depth(LIGHTS[0], lg, radius, tab) == 0.0)
+
+
+def test_camera_move_and_relight_reuse_caches():
+    r = renderer(physical_grid())
+    render(r, "ambient_scattering", propagation="tube")
+    keys = set(r._cache)
+    cam2 = Camera((1.0, -3.5, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
+    r.render(camera=cam2, window_size=SIZE, model="ambient_scattering", quality="preview", propagation="tube")
+    assert set(r._cache) == keys  # a camera move computes nothing but the ray cast
+    moved = PointLight((-0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
+    r.set_lights([moved, LIGHTS[1]])
+    render(r, "ambient_scattering", propagation="tube")
+    new = set(r._cache) - keys
+    assert new and all(moved in k for k in new)  # only the moved light's volumes are computed
+
+
+def test_auto_rules():
+    # albedo 0 everywhere: no scattering, no light volume is built
+    r = renderer(physical_grid(albedo=0.0, emission=(0.2, 0.2, 0.2)))
+    res = r.render(camera=CAM, window_size=SIZE, model="auto")
+    assert res.metadata["model"] == "single_scattering" and res.metadata["lights"] == 0
+    assert not any(k[0] == "tau" for k in r._cache)
+    # lights with zero intensity or behind an opaque wall are skipped
+    grid = physical_grid(n=9, albedo=0.8, noise=False)
+    dark = PointLight((0, -1.5, 0), intensity=0.0)
+    r = renderer(grid, lights=[dark])
+    res = r.render(camera=CAM, window_size=SIZE, model="auto")
+    assert res.metadata["model"] == "single_scattering" and res.metadata["lights"] == 0
+    # an opaque, non-scattering sheet between the light and the only scattering medium
+    wall = physical_grid(n=9, sigma=0.0, albedo=0.8)
+    s = np.zeros((9, 9, 9), np.float32)
+    a = np.full((9, 9, 9), 0.8, np.float32)
+    s[:, :, 4] = 1e6  # the sheet at z = 0, black (albedo 0)
+    a[:, :, 4] = 0.0
+    s[:, :, :4] = 0.5  # scattering medium below it
+    wall["sigma_t"] = s.ravel(order="F")
+    wall["albedo"] = np.repeat(a.ravel(order="F")[:, None], 3, axis=1)
+    above = PointLight((0, 0, 0.9), intensity=1.0)
+    below = DirectionalLight((0, 0, 1.0))  # propagates +z: enters through the bottom face
+    r = renderer(wall, lights=[above, below])
+    assert r.active_lights(r.light_grid()) == (below,)
+    res = r.render(camera=CAM, window_size=SIZE, model="single_scattering")
+    assert res.metadata["lights"] == 1
+    # with scattering and a light: ambient scattering; g = 0 uses a 1D table slice
+    r = renderer(physical_grid())
+    res = r.render(camera=CAM, window_size=SIZE, model="auto", quality="preview")
+    assert res.metadata["model"] == "ambient_scattering"
+    tab = [v for k, v in r._cache.items() if k[0] == "table"][0]
+    assert tab.D.shape[2] == 1
+
+
+def test_ambient_occlusion_homogeneous_box():
+    n = 21
+    grid = physical_grid(n=n, albedo=0.5, noise=False)
+    grid["sigma_t"] = np.full(grid.n_points, 1.5, np.float32)
+    r = renderer(grid, lights=())
+    radius = 0.3
+    cam = Camera((0, -5, 0), (0, 0, 0), (0, 0, 1), parallel_projection=True, parallel_scale=1.2)
+    res = r.render(camera=cam, window_size=(9, 9), model="ambient_occlusion", radius=radius, ambient_radiance=2.0,
+                   step=0.01)
+    # centre ray along y through the box: σ̄ equals σ where the equal-volume box lies inside
+    # the grid and falls (vacuum outside) within e/2 of the faces; integrate independently.
+    e = radius * (4 * np.pi / 3) ** (1 / 3)
+    h = 2 / (n - 1)
+    ys = np.linspace(-1, 1, 20001)
+    # fraction of the box (half-edge e/2) inside the cells' extent [−1 − h/2, 1 + h/2]
+    frac = (np.minimum(ys + e / 2, 1 + h / 2) - np.maximum(ys - e / 2, -1 - h / 2)) / e
+    sbar = 1.5 * np.clip(frac, 0, 1)
+    T = np.exp(-1.5 * (ys + 1))
+    L = np.trapezoid(T * 1.5 * 0.5 * 2.0 * np.exp(-radius * sbar), ys)
+    np.testing.assert_allclose(res.radiance[4, 4], L, rtol=2e-3)
+
+
+def test_three_albedo_lookup_equals_single_lookups():
+    from pv_ambient._kernels.preint import d_lookup, tau_coord
+    from pv_ambient._kernels.raycast import d_lookup3
+    from pv_ambient.preintegration import get_table
+
+    rng = np.random.default_rng(1)
+    for g in (0.0, 0.6):
+        tab = get_table(g, (0.3, 1.0), quality="preview")
+        D, _, a_nodes, lo, dl = tab.lookup_args()
+        for _ in range(200):
+            c, tau = rng.uniform(-1, 1), rng.choice([0.0, 1e-4, rng.uniform(0, 60)])
+            a = rng.uniform(0.2, 1.0, 3)
+            a[rng.integers(3)] = a[0]  # equal channels take the shortcut
+            it, tt = tau_coord(D.shape[1], lo, dl, tau)
+            got = d_lookup3(D, a_nodes, it, tt, c, a[0], a[1], a[2])
+            want = [d_lookup(D, a_nodes, lo, dl, c, tau, ac) for ac in a]
+            np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
