@@ -34,7 +34,7 @@ for k, g in enumerate((-0.5, 0.0, 0.6)):
     res = r.render(camera=cam, window_size=size, model="ambient_scattering", phase=g)
     print(f"g = {g:+.1f}: mean radiance {res.radiance.mean():.4f}")
     pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, exposure=1.0, tonemap="reinhard", srgb=True)
+    pa.pyvista_ext.add_result_plane(pl, res, exposure=2.5, tonemap="reinhard", srgb=True)
     pl.add_text(f"g = {g:+.1f}", font_size=10, color="white")
 pl.screenshot(os.path.join(OUT, "cloud_phase_sweep.png"))
 pl.close()
