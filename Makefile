@@ -28,7 +28,19 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 bench: $(STAMP)
-	$(PY) benchmarks/ea_vs_vtk.py
+	$(VENV)/bin/pv-ambient bench trade
+
+DOCS_STAMP := $(VENV)/.installed-docs
+
+$(DOCS_STAMP): $(STAMP)
+	$(PY) -m pip install -e ".[docs]"
+	touch $(DOCS_STAMP)
+
+# The example gallery (sphinx-gallery + PyVista's scraper) from examples/_sphinx into build/gallery;
+# PV_AMBIENT_EXAMPLES_FAST=1 make gallery builds the small, fast variant.
+gallery: $(DOCS_STAMP)
+	$(PY) -m sphinx -b html -d build/gallery/.doctrees examples/_sphinx build/gallery
+	@echo "gallery: $(CURDIR)/build/gallery/index.html"
 
 clean:
 	rm -rf $(VENV) .numba_cache demo_output build *.egg-info

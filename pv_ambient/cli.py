@@ -83,14 +83,19 @@ def _cmd_demo(args) -> int:
     return 0
 
 
+BENCHMARKS = {"trade": "trade.py", "ea": "ea_vs_vtk.py", "ambient": "ambient.py"}
+
+
 def _cmd_bench(args) -> int:
-    here = Path(__file__).resolve().parent.parent / "benchmarks" / "ea_vs_vtk.py"
+    rest = list(args.rest)
+    which = rest.pop(0) if rest and rest[0] in BENCHMARKS else "trade"
+    here = Path(__file__).resolve().parent.parent / "benchmarks" / BENCHMARKS[which]
     if not here.exists():
-        print("benchmarks/ea_vs_vtk.py is part of the source tree; run from a checkout", file=sys.stderr)
+        print(f"benchmarks/{BENCHMARKS[which]} is part of the source tree; run from a checkout", file=sys.stderr)
         return 2
     import runpy
 
-    sys.argv = [str(here)] + args.rest
+    sys.argv = [str(here)] + rest
     runpy.run_path(str(here), run_name="__main__")
     return 0
 
@@ -114,7 +119,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-n", type=int, default=96, help="grid resolution")
     d.add_argument("--size", type=int, default=400, help="panel size in pixels")
     d.set_defaults(func=_cmd_demo)
-    b = sub.add_parser("bench", help="run the benchmark tables")
+    b = sub.add_parser("bench", help="run a benchmark table: trade (default: every model against the path-traced "
+                                     "reference), ea (EA vs VTK), ambient (frame costs); extra arguments go to it")
     b.add_argument("rest", nargs=argparse.REMAINDER)
     b.set_defaults(func=_cmd_bench)
     return p

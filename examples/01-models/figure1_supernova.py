@@ -20,11 +20,14 @@ from pv_ambient import datasets
 
 pv.OFF_SCREEN = True
 OUT = os.environ.get("PV_AMBIENT_EXAMPLES_OUT", ".")
+FAST = os.environ.get("PV_AMBIENT_EXAMPLES_FAST", "0") not in ("", "0")
+N = 32 if FAST else 96  # points per axis
+SIZE = (96, 96) if FAST else (400, 400)  # pixels per panel
 
 # %%
 # The synthetic supernova-like shell and its suggested transfer function, with a scattering
 # albedo of 0.9 (the TF colour tints the scattered light).
-grid = datasets.supernova(n=96)
+grid = datasets.supernova(n=N)
 tf = pa.TransferFunction(**datasets.suggested_style("supernova"), albedo=0.9)
 light = pa.PointLight((0.0, 0.0, 0.0), intensity=3.0)
 r = pa.Renderer(grid, transfer_function=tf, lights=[light])
@@ -33,23 +36,25 @@ cam = pa.Camera((0.0, -3.6, 0.6), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=3
 # %%
 # Three models, one renderer: the mean-extinction grid is shared by AO and AS; the light's
 # volumes and the table slice are computed once.
-size = (400, 400)
 options = {"emission_absorption": {},
            # a strong ambient light and a wide ball make the occlusion visible next to the TF colour
            "ambient_occlusion": {"ambient_radiance": 10.0, "radius": "8 voxels"},
            "ambient_scattering": {"radius": "4 voxels"}}
-results = {m: r.render(camera=cam, window_size=size, model=m, **kw) for m, kw in options.items()}
+results = {m: r.render(camera=cam, window_size=SIZE, model=m, **kw) for m, kw in options.items()}
 for m, res in results.items():
     print(f"{m:22s} {res.metadata['time_prepare'] + res.metadata['time_render']:.2f} s")
 
 # %%
 # Side by side, each with its own exposure (the models compute different quantities; the lit
 # shell of AS is ~8× dimmer than the emission of EA, and the core around the light saturates).
-pl = pv.Plotter(shape=(1, 3), window_size=(3 * size[0], size[1]), border=False, off_screen=True)
+font = 6 if FAST else 12
+pl = pv.Plotter(shape=(1, 3), window_size=(3 * SIZE[0], SIZE[1]), border=False)
 for k, (m, exposure) in enumerate(zip(results, (0.0, -2.5, 3.0))):
     pl.subplot(0, k)
     pa.pyvista_ext.add_result_plane(pl, results[m], exposure=exposure, tonemap="reinhard", srgb=True)
     pl.add_text({"emission_absorption": "EA", "ambient_occlusion": "AO",
-                 "ambient_scattering": "AS"}[m], font_size=10, color="white")
-pl.screenshot(os.path.join(OUT, "figure1_supernova.png"))
-pl.close()
+                 "ambient_scattering": "AS"}[m], position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
+path = os.path.join(OUT, "figure1_supernova.png")
+w, h = pl.window_size
+pl.show(screenshot=path)
+print(f"saved {path} ({w}x{h})")

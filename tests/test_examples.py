@@ -1,0 +1,70 @@
+"""Every gallery example runs headless in its fast mode and produces the pictures it announces.
+
+Each ``examples/**/*.py`` (folders starting with ``_``, such as the Sphinx project, excluded) runs
+in its own subprocess with ``PV_AMBIENT_EXAMPLES_FAST=1`` (small grids and windows) and
+``PV_AMBIENT_EXAMPLES_OUT`` pointing at a temporary folder. Scripts announce each picture with a
+line ``saved PATH (WxH)``; the test checks that every announced PNG exists, has that size, is not
+blank, that no other PNG was written, and that the output never mentions NaN.
+"""
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = sorted(p for p in (ROOT / "examples").rglob("*.py")
+                  if not any(part.startswith("_") for part in p.relative_to(ROOT / "examples").parts))
+SAVED = re.compile(r"^saved (?P<path>.+\.png) \((?P<w>\d+)x(?P<h>\d+)\)$", re.MULTILINE)
+NAN = re.compile(r"\bnan\b", re.IGNORECASE)
+#: A picture is "not blank" when at least this fraction of its pixels is brighter than BRIGHT
+#: (8-bit, brightest channel; panel labels alone cover ~2 %, the fast renders 25–50 %) ...
+BRIGHT, MIN_BRIGHT_FRACTION = 40, 0.05
+#: ... and not uniform: the standard deviation of the brightest channel is at least this.
+MIN_STD = 10.0
+TIMEOUT_S = 120
+
+
+def test_examples_found():
+    """The gallery's required examples exist (a renamed file must be renamed here too)."""
+    names = {p.name for p in EXAMPLES}
+    assert len(EXAMPLES) >= 6
+    assert {"synthetic_datasets.py", "cloud_phase_sweep.py", "figure1_supernova.py",
+            "directional_single_vs_ambient.py", "tf_from_add_volume.py", "ct_two_coloured_lights.py",
+            "ambient_vs_path_traced.py"} <= names
+    for folder in {p.parent for p in EXAMPLES}:
+        assert (folder / "README.txt").is_file(), f"{folder} has no README.txt (sphinx-gallery section header)"
+
+
+def run_example(script, out):
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PV_AMBIENT_EXAMPLES")}
+    env.update(PYVISTA_OFF_SCREEN="true", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow", MPLBACKEND="Agg",
+               PV_AMBIENT_EXAMPLES_FAST="1", PV_AMBIENT_EXAMPLES_OUT=str(out))
+    # NUMBA_CACHE_DIR and PV_AMBIENT_CACHE are inherited: compiled kernels and table slices are reused
+    return subprocess.run([sys.executable, str(script)], cwd=out, env=env, capture_output=True, text=True,
+                          timeout=TIMEOUT_S)
+
+
+@pytest.mark.parametrize("script", EXAMPLES, ids=[str(p.relative_to(ROOT / "examples")) for p in EXAMPLES])
+def test_example_runs(script, tmp_path):
+    proc = run_example(script, tmp_path)
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 0, f"{script.name} failed:\n{output[-4000:]}"
+    assert not NAN.search(output), f"{script.name} printed NaN:\n{output[-4000:]}"
+    saved = [(Path(m["path"]), (int(m["w"]), int(m["h"]))) for m in SAVED.finditer(proc.stdout)]
+    assert saved, f"{script.name} announced no picture ('saved PATH (WxH)'):\n{proc.stdout[-2000:]}"
+    # every PNG written is announced (and written into PV_AMBIENT_EXAMPLES_OUT, nowhere else)
+    written = sorted(p.resolve() for p in tmp_path.rglob("*.png"))
+    assert written == sorted({p.resolve() for p, _ in saved}), f"written {written}, announced {saved}"
+    for path, size in saved:
+        with Image.open(path) as im:
+            assert im.size == size, f"{path.name}: {im.size} != announced {size}"
+            value = np.asarray(im.convert("RGB")).max(axis=-1)
+        bright = float(np.mean(value > BRIGHT))
+        assert bright >= MIN_BRIGHT_FRACTION, f"{path.name} is blank: {100 * bright:.2f} % of pixels > {BRIGHT}"
+        assert value.std() >= MIN_STD, f"{path.name} is uniform: std {value.std():.1f}"
