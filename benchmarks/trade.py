@@ -81,7 +81,8 @@ def vtk_time(grid, r, cam, size, step, repeats):
 
 def configurations(quick):
     cfg = [("single_scattering", q, {"quality": q}) for q in ("preview", "balanced", "accurate")]
-    radii = (2, 4, 8) if not quick else (4,)
+    cfg += [("ambient_scattering", q, {"quality": q}) for q in ("preview", "accurate")]  # defaults: BL, r = 8 vx
+    radii = (2, 4, 8) if not quick else (8,)
     for prop in ("beer_lambert", "tube"):
         for rv in radii:
             cfg.append(("ambient_scattering", f"{prop} r={rv}", {"quality": "balanced", "propagation": prop,
@@ -143,6 +144,24 @@ def main(argv=None):
                              block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2], ssim=sc[3], pt_same=tm / t_vtk))
             spp *= 2
 
+        from pv_ambient.denoise import available
+
+        if available():  # path tracing + OIDN (the optional extra "denoise")
+            for spp in (1, 2, 4, 16, 64):
+                times = []
+                for k in range(args.repeats):
+                    t = time.perf_counter()
+                    res = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=k + 1,
+                                   samples_per_pixel=spp, denoise=True)
+                    times.append(time.perf_counter() - t)
+                tm = float(np.median(times))
+                sc = score(res.radiance)
+                rows.append(dict(scene=name, model="path_traced+denoise", preset=f"{spp} spp", first=tm / t_vtk,
+                                 move=tm / t_vtk, block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2], ssim=sc[3],
+                                 pt_same=float("nan")))
+        else:
+            print("  (pyoidn not installed: no denoised path-tracing curve; pip install 'pv_ambient[denoise]')")
+
         def pt_time_for(err):
             ts, es = np.array([p[0] for p in pt]), np.array([p[1] for p in pt])
             if err >= es[0]:
@@ -172,8 +191,8 @@ def main(argv=None):
             print(f"  {model:20s} {preset:18s} {t_first / t_vtk:>9.2f} {t_move / t_vtk:>9.2f} {sc[0]:>9.3f}"
                   f" {sc[1]:>8.3f} {sc[2]:>+7.3f} {sc[3]:>6.3f} {t_pt / t_vtk:>15.2f}")
         for row in rows:
-            if row["scene"] == name and row["model"] == "path_traced":
-                print(f"  {'path_traced':20s} {row['preset']:18s} {row['first']:>9.2f} {row['move']:>9.2f}"
+            if row["scene"] == name and row["model"].startswith("path_traced"):
+                print(f"  {row['model']:20s} {row['preset']:18s} {row['first']:>9.2f} {row['move']:>9.2f}"
                       f" {row['block_rmse']:>9.3f} {row['pixel_rmse']:>8.3f} {row['bias']:>+7.3f} {row['ssim']:>6.3f}")
     with open(outdir / "trade.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -196,11 +215,13 @@ def plot(rows, path):
         groups = {}
         for r in sub:
             label = r["model"] if r["model"] != "ambient_scattering" else "AS " + r["preset"].split()[0]
+            if label in ("AS preview", "AS accurate"):
+                label = "AS presets"
             groups.setdefault(label, []).append(r)
         for label, rs in groups.items():
             x = [r["move"] for r in rs]
             y = [r["block_rmse"] for r in rs]
-            style = "-o" if label == "path_traced" else "o"
+            style = "-o" if label.startswith("path_traced") else "o"
             ax.loglog(x, y, style, label=label, ms=4)
         ax.set_title(name)
         ax.set_xlabel("camera-move frame time / VTK EA frame")

@@ -32,6 +32,15 @@ MAJORANT_BLOCK = 8
 ERT = 1e-5
 #: Ray step per quality preset, in units of the smallest grid spacing.
 QUALITY_STEP = {"preview": 1.0, "balanced": 0.5, "accurate": 0.25}
+#: What each quality preset sets when the knob is not given explicitly: ray step (smallest grid
+#: spacings), light-grid nodes per data spacing (None: DESIGN §4.3's default, 2 where
+#: max σt·h > 0.3 else 1), preintegrated-table effort, and samples per pixel of ``path_traced``.
+#: Measured cost and error per preset: README, "Quality presets".
+QUALITY_PRESETS = {
+    "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16},
+    "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64},
+    "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256},
+}
 #: Options that belong to particular models (accepted by every render call, used where they apply).
 MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited", "backend",
                  "target_error"}
@@ -280,7 +289,7 @@ class Renderer:
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
-               propagation=DEFAULT_PROPAGATION, table_quality="balanced", **model_options) -> RenderResult:
+               propagation=DEFAULT_PROPAGATION, table_quality=None, **model_options) -> RenderResult:
         """Render one image.
 
         Parameters
@@ -304,8 +313,10 @@ class Renderer:
             4. otherwise ``ambient_scattering``; an isotropic phase function uses a 1D table
                slice (D does not depend on θ).
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
-            Preset for the knobs not given explicitly (the ray step: 1, ½, ¼ of the smallest
-            grid spacing).
+            Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
+            the smallest grid spacing; light grid 1×, DESIGN §4.3's default, ≥ 2× the data
+            resolution; table effort preview, balanced, balanced; ``path_traced`` 16, 64, 256
+            samples per pixel.
         step : float, optional
             Ray-marching step in world units (overrides ``quality``).
         jitter : bool, default: False
@@ -322,7 +333,7 @@ class Renderer:
             spacings for ambient scattering (the measured best, ``DEFAULT_RADIUS_VOXELS``) and 4
             for ambient occlusion. A string like ``"4 voxels"`` gives it in units of the largest spacing.
         light_resolution : float, optional
-            Light-grid nodes per data spacing (DESIGN §4.3 default when None).
+            Light-grid nodes per data spacing (the preset's when None).
         ambient_radiance : float, default: 1.0
             Uniform ambient radiance of ``ambient_occlusion``.
         propagation : {"beer_lambert", "tube"}, default: "beer_lambert"
@@ -330,8 +341,9 @@ class Renderer:
             (DESIGN §4.3): Beer–Lambert transmittance to the ball's entry point, or the paper's
             tube march through balls (soft shadows). The default is the one measured closer to
             the path-traced reference.
-        table_quality : {"preview", "balanced", "accurate"}, default: "balanced"
-            Monte Carlo effort of the preintegrated table slice (computed once, cached on disk).
+        table_quality : {"preview", "balanced", "accurate"}, optional
+            Monte Carlo effort of the preintegrated table slice (computed once, cached on disk);
+            the preset's when None.
         progress_bar : bool, default: False
             Show a tqdm progress bar over image tiles.
         **model_options
@@ -343,12 +355,20 @@ class Renderer:
         quarter step to the light cannot resolve the singularity).
         """
         from .phase import as_phase
+        from .propagation import default_factor
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
         check_choice(model, "model", ALL_MODELS)
         check_choice(quality, "quality", tuple(QUALITY_STEP))
         check_choice(propagation, "propagation", PROPAGATION_MODES)
+        preset = QUALITY_PRESETS[quality]
+        if table_quality is None:
+            table_quality = preset["table_quality"]
         check_choice(table_quality, "table_quality", tuple(QUALITY_STEP))
+        if light_resolution is None and preset["light_resolution"] is not None:
+            light_resolution = max(preset["light_resolution"],
+                                   default_factor(self.optics, self.geometry) if quality == "accurate" else 0.0)
+        model_options.setdefault("samples_per_pixel", preset["samples_per_pixel"])
         unknown = set(model_options) - MODEL_OPTIONS
         if unknown:
             raise TypeError(f"render() got unknown options {sorted(unknown)}; model options are {sorted(MODEL_OPTIONS)}")
@@ -415,11 +435,28 @@ class Renderer:
     def _path_trace(self, cam, size, ph, step, seed, bg, progress_bar, options):
         from .reference import path_trace
 
-        if options.get("denoise"):
-            raise ValueError("denoise=True needs the optional 'pyoidn' extra, which is not wired in yet")
-        return path_trace(self, cam, size, phase=ph, samples_per_pixel=options.get("samples_per_pixel", 64),
-                          target_error=options.get("target_error"), max_depth=options.get("max_depth"), seed=seed,
-                          background=bg, progress_bar=progress_bar, light_clamp=0.25 * step)
+        denoise = options.get("denoise", False)
+        if denoise not in (True, False):
+            raise TypeError(f"denoise must be True or False, got {denoise!r}")
+        if denoise:
+            from .denoise import available, denoise_radiance
+
+            if not available():
+                denoise_radiance(None)  # raises the ImportError that names the extra
+        res = path_trace(self, cam, size, phase=ph, samples_per_pixel=options.get("samples_per_pixel", 64),
+                         target_error=options.get("target_error"), max_depth=options.get("max_depth"), seed=seed,
+                         background=bg, progress_bar=progress_bar, light_clamp=0.25 * step)
+        res.metadata.setdefault("time_prepare", 0.0)
+        res.metadata.setdefault("time_render", res.metadata.get("time", 0.0))
+        res.metadata["denoised"] = bool(denoise)
+        if denoise:
+            import time as _time
+
+            t = _time.perf_counter()
+            res.radiance = denoise_radiance(res.radiance)  # std_error stays the un-denoised one
+            res.metadata["time_denoise"] = _time.perf_counter() - t
+            res.metadata["time_render"] += res.metadata["time_denoise"]
+        return res
 
     def _radius(self, radius, model="ambient_scattering"):
         h = float(np.max(self.geometry.spacing))
