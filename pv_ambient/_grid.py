@@ -63,7 +63,7 @@ class GridGeometry:
     @property
     def spacing(self) -> np.ndarray:
         """World length of one index step along each axis."""
-        return np.linalg.norm(self.index_to_world[:3, :3], axis=0)
+        return _column_norms(self.index_to_world[:3, :3])
 
     @property
     def corners(self) -> np.ndarray:
@@ -98,6 +98,51 @@ class GridGeometry:
                 self.box_lo.tobytes(), self.box_hi.tobytes())
 
 
+#: Supported grid spacings (world units). Rendering is scale invariant (tests/test_extremes.py),
+#: but squared world lengths (I/d², the point-light clamp (step/4)², lights 1e6 box sizes away)
+#: must stay normal float64 numbers: spacings beyond this range underflow or overflow them.
+SPACING_RANGE = (1e-100, 1e100)
+
+
+def _column_norms(a) -> np.ndarray:
+    """Euclidean norms of the columns of ``a``, without under/overflow of the squares."""
+    scale = np.max(np.abs(a), axis=0)
+    safe = np.where(scale > 0, scale, 1.0)
+    return scale * np.sqrt(np.sum((a / safe[None, :]) ** 2, axis=0))
+
+
+def _check_index_to_physical(index_to_physical, flat) -> np.ndarray:
+    """The 4×4 index→world matrix as float64, or a ValueError naming the grid's spacing.
+
+    Every axis that holds more than one grid point needs a finite, non-zero spacing (the map
+    must be invertible: kernels work in index space). A flat axis (one grid point) has no
+    thickness whatever its spacing, so a zero spacing there is replaced by 1 along the axis's
+    direction (VTK writes 0 for the third axis of some 2D images).
+    """
+    m = np.array(index_to_physical, dtype=np.float64)
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise ValueError(f"the grid's index-to-world matrix must be a finite 4x4 matrix (spacing, origin and "
+                         f"direction finite), got {m.tolist()!r}")
+    a = m[:3, :3]
+    spacing = _column_norms(a)
+    for ax in range(3):
+        if spacing[ax] == 0.0 and flat[ax]:
+            # a zero column has lost its direction: take the right-handed normal of the others
+            n = np.cross(a[:, (ax + 1) % 3], a[:, (ax + 2) % 3])
+            nn = np.linalg.norm(n)
+            a[:, ax] = n / nn if nn > 0 else np.eye(3)[:, ax]
+            spacing[ax] = 1.0
+    if np.any(spacing == 0.0):
+        raise ValueError(f"grid spacing must be positive along every axis with more than one point, got "
+                         f"{tuple(float(x) for x in spacing)} (axes with one point: {tuple(bool(f) for f in flat)})")
+    if np.any(spacing < SPACING_RANGE[0]) or np.any(spacing > SPACING_RANGE[1]):
+        raise ValueError(f"grid spacing must lie in [{SPACING_RANGE[0]:g}, {SPACING_RANGE[1]:g}] world units (squared "
+                         f"lengths must stay normal doubles), got {tuple(float(x) for x in spacing)}")
+    if abs(np.linalg.det(a / spacing[None, :])) < 1e-12:
+        raise ValueError(f"the grid's direction matrix must be invertible, got {(a / spacing[None, :]).tolist()!r}")
+    return m
+
+
 def make_geometry(point_dims, index_to_physical, offset=(0, 0, 0), association="point") -> GridGeometry:
     """Geometry of the point or cell samples of an image with ``point_dims`` grid points.
 
@@ -106,6 +151,7 @@ def make_geometry(point_dims, index_to_physical, offset=(0, 0, 0), association="
     """
     dims = np.asarray(point_dims, dtype=np.int64)
     flat = dims <= 1
+    m = _check_index_to_physical(index_to_physical, flat)
     shift = np.asarray(offset, dtype=np.float64).copy()
     if association == "point":
         shape = tuple(int(d) for d in dims)
@@ -121,7 +167,7 @@ def make_geometry(point_dims, index_to_physical, offset=(0, 0, 0), association="
         raise ValueError(f"association must be 'point' or 'cell', got {association!r}")
     translate = np.eye(4)
     translate[:3, 3] = shift
-    m = np.asarray(index_to_physical, dtype=np.float64) @ translate
+    m = m @ translate
     return GridGeometry(shape=shape, index_to_world=m, box_lo=lo, box_hi=hi, association=association)
 
 

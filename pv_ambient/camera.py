@@ -59,7 +59,10 @@ class Camera:
         pos = check_vector(self.position, "camera position")
         foc = check_vector(self.focal_point, "camera focal_point")
         up = check_vector(self.view_up, "camera view_up", nonzero=True)
-        if np.allclose(pos, foc):
+        # Relative test (no absolute tolerance): a scene is valid at any scale, so a camera 1e-9
+        # world units from its focal point is fine when the scene is that small.
+        dist = np.linalg.norm(foc - pos)
+        if dist == 0.0 or dist <= 1e-12 * max(np.linalg.norm(pos), np.linalg.norm(foc)):
             raise ValueError(f"camera position and focal_point coincide at {tuple(pos)}")
         fwd = (foc - pos) / np.linalg.norm(foc - pos)
         right = np.cross(fwd, up)

@@ -85,6 +85,12 @@ def sigma_on_grid(optics, grid: LightGrid) -> np.ndarray:
 
 
 JUMP = 4
+#: A point light closer than this (light-grid cells) to a node layer is moved onto it (see
+#: :func:`optical_depth`); far below any discretisation error (~1e-3 of τ).
+LIGHT_SNAP = 1e-9
+#: Relative tolerance under which two components of a directional light count as equal when its
+#: sweep axis is chosen.
+DIRECTION_TIE = 1e-9
 
 
 def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP) -> np.ndarray:
@@ -99,6 +105,13 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP) -> np.ndar
     out = np.zeros(shape, np.float32)
     if isinstance(light, PointLight):
         lp = grid.to_light(geometry.to_index(np.asarray(light.position)[None])[0])
+        # A light on a node layer (a light "on a grid point") arrives here within rounding of an
+        # integer, on either side; the sweeps start at the first layer beyond the light
+        # (floor/ceil), so snap it: otherwise which layers are marched directly and which are
+        # interpolated depends on the last bit of the world→index map (scale invariance broke by
+        # 1e-6 of the image between spacings whose rounding fell on different sides).
+        near = np.rint(lp)
+        lp = np.where(np.abs(lp - near) <= LIGHT_SNAP, near, lp)
         sweeps = [(a, s) for a in range(3) for s in (1, -1) if shape[a] > 1]
         is_point = True
         lx, ly, lz = lp
@@ -106,9 +119,12 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP) -> np.ndar
         # direction toward the light in light-index units, scaled to ±1 along its dominant axis
         binv = np.linalg.pinv(grid.B)
         v = binv @ (-np.asarray(light.direction))
-        a = int(np.argmax(np.abs(v) * (np.asarray(shape) > 1)))
-        if abs(v[a]) == 0:
+        av = np.abs(v) * (np.asarray(shape) > 1)
+        if av.max() == 0:
             return out
+        # the first axis within rounding of the largest component: a diagonal direction must not
+        # pick its sweep axis by the last bit of the world→index map (scale invariance)
+        a = int(np.argmax(av >= av.max() * (1.0 - DIRECTION_TIE)))
         v = v / abs(v[a])
         sweeps = [(a, 1 if v[a] < 0 else -1)]
         is_point = False

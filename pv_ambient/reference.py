@@ -74,7 +74,8 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         batch from the second sample on.
     max_depth : int, optional
         Maximum number of collisions per path (≥ 1): 1 is single scattering plus emission;
-        unlimited when None (Russian roulette ends paths).
+        unlimited when None (Russian roulette ends paths; its survival probability is capped at
+        0.999, so paths end even in a conservative medium, see :mod:`pv_ambient._kernels.pathtrace`).
     seed : int, default: 0
     background : RGB, default: (0, 0, 0)
         Constant background radiance seen through the volume by camera rays (not a light:

@@ -25,6 +25,16 @@ from .medium import sigma_at
 from .preint import f_lookup
 
 
+#: Tolerance (light-grid cells) of the sweep's discrete choices — a node's dominant axis, whether
+#: the light is within reach, whether a characteristic leaves the box, a march's step count —
+#: whose arguments are often whole numbers up to rounding (lights on nodes or half-way between,
+#: diagonal characteristics, marches of exactly J layers): without it the light volume depended
+#: on the last bit of the world→index map, so scaling a scene changed its image by up to 1e-4
+#: (``tests/test_extremes.py``). Must not exceed ``propagation.LIGHT_SNAP`` (a node at distance
+#: 0 from the light along an axis is then never given that axis unless it sits on the light).
+TIE = 1e-9
+
+
 @driver
 def sample_sigma_grid(mode, field, table, lut_lo, lut_inv, lo, step, out):
     """σt at every light-grid node (node k ↦ data index lo + k·step)."""
@@ -58,7 +68,9 @@ def march_tau(sig, B, x, y, z, vx, vy, vz, tmax):
     if not (t1 > 0.0):
         return 0.0
     vmax = max(abs(vx), abs(vy), abs(vz))
-    nstep = int(math.ceil(t1 * vmax / 0.5)) + 1
+    # t1·vmax is often a whole number of cells up to rounding (a sweep marches exactly J layers
+    # back): TIE keeps the step count from depending on the last bit (scale invariance)
+    nstep = int(math.ceil(2.0 * t1 * vmax - TIE)) + 1
     dt = t1 / nstep
     seg = wlen(B, vx, vy, vz) * dt
     acc = 0.5 * trilinear(sig, x, y, z)
@@ -86,8 +98,10 @@ def path_length(shape, B, x, y, z, vx, vy, vz, is_point, tmax):
 
 @scalar
 def _bilerp_layer(a, u, v):
-    """Bilinear value of the 2D array ``a`` at (u, v), assumed inside [0, n−1]²."""
+    """Bilinear value of the 2D array ``a`` at (u, v), clamped to [0, n−1]²."""
     n0, n1 = a.shape
+    u = min(max(u, 0.0), n0 - 1.0)
+    v = min(max(v, 0.0), n1 - 1.0)
     i0 = min(int(u), n0 - 2) if n0 > 1 else 0
     j0 = min(int(v), n1 - 2) if n1 > 1 else 0
     i1 = i0 + 1 if n0 > 1 else 0
@@ -118,7 +132,8 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
     """One sweep along axis ``a`` in direction ``sign`` (+1: increasing index) away from the light.
 
     For a point light at light-index (lx, ly, lz) the sweep covers the layers beyond the light
-    and writes the nodes whose dominant axis (first axis of largest |x − light|) is ``a``.
+    and writes the nodes whose dominant axis (first axis of largest |x − light|, to within ``TIE``)
+    is ``a``.
     For a directional light, (lx, ly, lz) is the direction *toward* the light in light-index
     units scaled so its component along ``a`` is ±1, and every node is written.
     A node's characteristic reaches back ``jump`` layers (fewer near the start): one bilinear
@@ -161,7 +176,7 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
                     vy = ly
                     vz = lz
                 va = abs(vx if a == 0 else (vy if a == 1 else vz))
-                if J == 0 or (is_point and va <= J):
+                if J == 0 or (is_point and va <= J + TIE):
                     # nothing swept behind this node yet, or the light lies within reach:
                     # integrate straight to the light (t = 1) or to where the ray leaves the box
                     tau = march_tau(sig, B, x, y, z, vx, vy, vz, 1.0 if is_point else math.inf)
@@ -171,7 +186,8 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
                     vc = vz if c == 2 else vy
                     pb = ib + vb * f
                     pc = ic + vc * f
-                    if pb < 0.0 or pb > nb - 1 or pc < 0.0 or pc > nc - 1:
+                    # (TIE: a diagonal characteristic lands exactly on the boundary, up to rounding)
+                    if pb < -TIE or pb > nb - 1 + TIE or pc < -TIE or pc > nc - 1 + TIE:
                         # the ray leaves the box before the layer J back: integrate to the exit
                         tau = march_tau(sig, B, x, y, z, vx, vy, vz, f)
                     else:
@@ -189,10 +205,12 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
                     ax = abs(lx - x)
                     ay = abs(ly - y)
                     az = abs(lz - z)
+                    # ties (nodes on a diagonal through the light) go to the first axis; TIE keeps
+                    # rounding of the light's position from choosing (scale invariance)
                     dom = 0
-                    if ay > ax:
+                    if ay > ax + TIE:
                         dom = 1
-                    if az > max(ax, ay):
+                    if az > max(ax, ay) + TIE:
                         dom = 2
                     write = dom == a
                 if write:

@@ -21,9 +21,15 @@ Estimator (one path per call, RGB throughput ``β``, grey extinction):
    a new direction from the phase function by importance sampling (``phase_sample``: the
    weight ``p/pdf`` is exactly 1), and a new free flight from the collision point.
 6. **Termination**: after ``rr_depth`` collisions, Russian roulette with survival probability
-   ``q = max(β)`` (then ``β /= q``); ``max_depth`` collisions at most. Collision ``n`` adds
-   emission scattered ``n − 1`` times and light scattered ``n`` times, so ``max_depth = 1`` is
-   single scattering (NEE at the first collision only) plus the emission–absorption term.
+   ``q = min(max(β), RR_MAX_SURVIVAL)`` (then ``β /= q``); ``max_depth`` collisions at most.
+   Without the cap (0.999) a path in a conservative medium (albedo 1: β never drops) would only
+   end by leaving the medium, which from inside an optically huge one (σt·L ~ 1e6, camera inside)
+   takes ~(σt·L)² collisions: the render never returns. With it, such a path takes ~1000
+   collisions after ``rr_depth`` on average, the estimator stays unbiased (β /= q), and nothing
+   changes where the albedo is ≤ 0.999 (there max(β) ≤ 0.999 already at every roulette).
+   Collision ``n`` adds emission scattered ``n − 1`` times and light scattered ``n`` times, so
+   ``max_depth = 1`` is single scattering (NEE at the first collision only) plus the
+   emission–absorption term.
 
 Each path also reports whether its primary ray collided (an unbiased estimate of the primary
 ray's opacity ``1 − T``). Random numbers: ``rng.uniform(seed, pixel, sample, dim)``, ``dim``
@@ -44,6 +50,8 @@ from .tracking import delta_track, draw, ratio_track
 
 #: Ratio tracking along shadow rays switches on Russian roulette below this transmittance.
 SHADOW_RR_BELOW = 0.05
+#: Largest survival probability of the path's Russian roulette (module docstring, item 6).
+RR_MAX_SURVIVAL = 0.999
 
 
 @scalar
@@ -155,6 +163,7 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
         if depth >= max_depth:
             break
         # Russian roulette on the throughput after rr_depth collisions.
+        q = min(q, RR_MAX_SURVIVAL)
         if depth >= rr_depth and q < 1.0:
             u = draw(k, dim)
             dim += 1
