@@ -82,6 +82,8 @@ def vtk_time(grid, r, cam, size, step, repeats):
 def configurations(quick):
     cfg = [("single_scattering", q, {"quality": q}) for q in ("preview", "balanced", "accurate")]
     cfg += [("ambient_scattering", q, {"quality": q}) for q in ("preview", "accurate")]  # defaults: BL, r = 8 vx
+    cfg += [("diffusion", "plain", {"quality": "balanced"}),
+            ("diffusion", "flux-limited", {"quality": "balanced", "flux_limited": True})]
     radii = (2, 4, 8) if not quick else (8,)
     for prop in ("beer_lambert", "tube"):
         for rv in radii:
@@ -217,6 +219,8 @@ def plot(rows, path):
             label = r["model"] if r["model"] != "ambient_scattering" else "AS " + r["preset"].split()[0]
             if label in ("AS preview", "AS accurate"):
                 label = "AS presets"
+            if r["model"] == "diffusion":
+                label = "diffusion " + r["preset"]
             groups.setdefault(label, []).append(r)
         for label, rs in groups.items():
             x = [r["move"] for r in rs]

@@ -18,7 +18,8 @@ from .lights import as_lights, pack_lights
 from .result import RenderResult
 from .transfer import as_transfer_function
 
-MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering", "path_traced")
+MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering", "path_traced",
+          "diffusion")
 MODEL_IDS = {"emission_absorption": 0, "ambient_occlusion": 1, "single_scattering": 2, "ambient_scattering": 3,
              "diffusion": 4}
 #: Optical depth above which a light counts as blocked (e^-700 underflows double precision soon after).
@@ -55,6 +56,7 @@ DEFAULT_PROPAGATION = "beer_lambert"
 DEFAULT_RADIUS_VOXELS = {"ambient_scattering": 8.0, "auto": 8.0, "ambient_occlusion": 4.0}
 _DUMMY3 = np.zeros((1, 1, 1), np.float32)
 _DUMMY1 = np.zeros(1, np.float64)
+_DUMMY12 = np.zeros((1, 1, 1, 12), np.float32)
 
 
 def _tiles(n, count):
@@ -277,6 +279,27 @@ class Renderer:
             self._cache[key] = ball
         return self._cache[key]
 
+    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False):
+        """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (DESIGN §4b),
+        (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
+        relight re-solves only the light that changed (warm-started from its previous solution)."""
+        from .diffusion import solve_for_light
+
+        g = float(phase.mean_cosine)
+        total = None
+        for lt in lights:
+            key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
+            if key not in self._cache:
+                t = time.perf_counter()
+                sol = solve_for_light(self, lt, g, light_resolution=grid.factor, flux_limited=bool(flux_limited),
+                                      progress_bar=progress_bar)
+                self._cache[key] = sol.packed()
+                self.timings[f"diffusion {lt}"] = time.perf_counter() - t
+                self._diffusion_info = {"iterations": int(sol.iterations), "residual": float(sol.residual),
+                                        "converged": bool(sol.converged)}
+            total = self._cache[key] if total is None else total + self._cache[key]
+        return total if total is not None else _DUMMY12
+
     def resolve_model(self, model, grid=None):
         """The model ``auto`` stands for (rules in :meth:`render`)."""
         if model != "auto":
@@ -393,8 +416,8 @@ class Renderer:
         w, h = size
         rad = np.zeros((h, w, 3), np.float32)
         alpha = np.zeros((h, w), np.float32)
-        lights = self.active_lights(grid) if model in ("single_scattering", "ambient_scattering") else ()
-        if model == "single_scattering" and not self.optics.has_scattering:
+        lights = self.active_lights(grid) if model in ("single_scattering", "ambient_scattering", "diffusion") else ()
+        if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
             lights = ()
         taus = [self.optical_depth(lt, grid) for lt in lights]
         ball = self.ball_grid(radius) if model in ("ambient_occlusion", "ambient_scattering") else _DUMMY4
@@ -408,6 +431,10 @@ class Renderer:
                 phi = np.concatenate([self.front_depth(lt, grid, radius, tab) for lt in lights], axis=-1)
             else:
                 phi = None  # the τ grids themselves, read at the ball's entry point
+        diff = _DUMMY12
+        if model == "diffusion" and lights:
+            diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
+                                  progress_bar=progress_bar)
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
             kind, vec, power = pack_lights(lights)
@@ -419,8 +446,9 @@ class Renderer:
             args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg)
             medium = (o.mode, o.field, o.table, o.lut_lo, o.lut_inv, o.aux, self.majorant(), MAJORANT_BLOCK)
             light_args = (kind, vec, power, lg.lo, lg.inv_step, tau, ph.kind, float(ph.g), (0.25 * step) ** 2)
-            self._run_tiles(MODEL_IDS[model], args, medium, light_args, (radius, ball, amb) + tab_args, rad,
-                            alpha, progress_bar, model)
+            self._run_tiles(MODEL_IDS[model], args, medium, light_args,
+                            (radius, ball, amb) + tab_args + (diff, float(ph.mean_cosine)), rad, alpha, progress_bar,
+                            model)
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": requested, "quality": quality, "step": step,

@@ -23,7 +23,7 @@ import math
 
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .interp import trilinear, trilinear4, trilinear_c
+from .interp import cell_coords, trilinear, trilinear4, trilinear_c
 from .majorant import block_exit, block_of
 from .medium import MODE_GRID, lut_coords, lut_value
 from .phase import phase_eval
@@ -31,6 +31,7 @@ from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
 
 STREAM_JITTER = 1
+INV_4PI_RC = 1.0 / (4.0 * math.pi)
 
 EMISSION_ABSORPTION = 0
 AMBIENT_OCCLUSION = 1
@@ -187,12 +188,56 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, 
     return sr, sg, sb
 
 
+@scalar
+def diffusion_light(diff, x, y, z, dx, dy, dz, g):
+    """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
+    light from the diffusion solve (DESIGN §4b), ω_o = −d toward the camera. ``diff`` is
+    (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components."""
+    i0, i1, fx = cell_coords(x, diff.shape[0])
+    j0, j1, fy = cell_coords(y, diff.shape[1])
+    k0, k1, fz = cell_coords(z, diff.shape[2])
+    w000 = (1.0 - fx) * (1.0 - fy) * (1.0 - fz)
+    w100 = fx * (1.0 - fy) * (1.0 - fz)
+    w010 = (1.0 - fx) * fy * (1.0 - fz)
+    w110 = fx * fy * (1.0 - fz)
+    w001 = (1.0 - fx) * (1.0 - fy) * fz
+    w101 = fx * (1.0 - fy) * fz
+    w011 = (1.0 - fx) * fy * fz
+    w111 = fx * fy * fz
+    out0 = 0.0
+    out1 = 0.0
+    out2 = 0.0
+    for c in range(3):
+        v = 0.0
+        for m in range(4):
+            q = 4 * c + m
+            a = (w000 * diff[i0, j0, k0, q] + w100 * diff[i1, j0, k0, q] + w010 * diff[i0, j1, k0, q]
+                 + w110 * diff[i1, j1, k0, q] + w001 * diff[i0, j0, k1, q] + w101 * diff[i1, j0, k1, q]
+                 + w011 * diff[i0, j1, k1, q] + w111 * diff[i1, j1, k1, q])
+            if m == 0:
+                v += a
+            elif m == 1:
+                v -= 3.0 * g * a * dx
+            elif m == 2:
+                v -= 3.0 * g * a * dy
+            else:
+                v -= 3.0 * g * a * dz
+        v = max(v, 0.0) * INV_4PI_RC
+        if c == 0:
+            out0 = v
+        elif c == 1:
+            out1 = v
+        else:
+            out2 = v
+    return out0, out1, out2
+
+
 @driver
 def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, row0, row1,
                   mode, field, table, lut_lo, lut_inv, aux, maj, block,
                   lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
                   radius, ball, amb,
-                  phi, D, a_nodes, tau_lo_log, tau_dlog,
+                  phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
                   out_rad, out_alpha):
     """Render rows [row0, row1) of the image with ray-cast ``model`` (see the module docstring)."""
     H, W = out_alpha.shape
@@ -255,6 +300,11 @@ def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, row0, ro
                                 mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow,
                                                            llo, linv, phi, radius, radius * bs, b1, b2, b3,
                                                            D, a_nodes, tau_lo_log, tau_dlog, d2min)
+                                lr += mr
+                                lg += mg
+                                lb += mb
+                            elif model == DIFFUSION:
+                                mr, mg, mb = diffusion_light(diff, x, y, z, dx, dy, dz, gdiff)
                                 lr += mr
                                 lg += mg
                                 lb += mb
