@@ -554,3 +554,34 @@ def test_bad_arguments(bad, match):
     r, cam, _, _ = slab_scene()
     with pytest.raises(ValueError, match=match):
         path_trace(r, cam, (4, 4), **bad)
+
+
+def test_depth_one_reference_equals_single_scattering_model():
+    """Issue 4: the reference at max_depth = 1 equals the ``single_scattering`` model within
+    3 standard errors + the model's step bias (measured as the step halves). Per pixel, at a
+    false-alarm rate of 0.27 % per pixel, so ≥ 97 % of the 256 pixels must pass (and the image mean
+    must agree within 3 standard errors + bias)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_ambient import CAM, physical_grid, renderer
+
+    r = renderer(physical_grid(n=17, sigma=3.0, albedo=0.9))
+    h = float(np.min(r.geometry.spacing))
+    ss_half = r.render(camera=CAM, window_size=(16, 16), model="single_scattering", step=h / 2).radiance
+    ss_quarter = r.render(camera=CAM, window_size=(16, 16), model="single_scattering", step=h / 4).radiance
+    bias = np.abs(ss_half - ss_quarter).astype(np.float64)
+    ref = r.render(camera=CAM, window_size=(16, 16), model="path_traced", max_depth=1, samples_per_pixel=512,
+                   seed=11, step=h / 4)
+    se = ref.std_error.astype(np.float64)
+    d = np.abs(ref.radiance.astype(np.float64) - ss_quarter)
+    # pixels whose primary rays never collided in 512 samples have no variance estimate: there the
+    # medium's opacity is below ~1/512, so the model's radiance must be negligible
+    hit = ref.alpha > 0
+    assert hit.mean() > 0.5
+    assert ss_quarter[~hit].max() <= 2e-3 * ss_quarter.max()
+    ok = (d <= 3 * se + bias).all(axis=-1)[hit]
+    assert ok.mean() >= 0.97
+    se_mean = np.sqrt((se ** 2).sum()) / se.size
+    assert abs(ref.radiance.mean() - ss_quarter.mean()) <= 3 * se_mean + bias.mean()
