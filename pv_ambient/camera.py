@@ -244,7 +244,10 @@ def as_camera(camera, *, window_size=None, bounds=None):
             plotter.reset_camera()
             plotter.camera_set = True
         cam = Camera.from_vtk(plotter.renderer.GetActiveCamera())
-        size = tuple(int(s) for s in plotter.window_size)
+        # the active renderer's share of the window (subplots): its viewport in normalised units
+        x0, y0, x1, y1 = plotter.renderer.GetViewport()
+        w, h = plotter.window_size
+        size = (max(1, int(round((x1 - x0) * w))), max(1, int(round((y1 - y0) * h))))
     else:
         raise TypeError("camera must be a pv_ambient.Camera, pyvista.Camera, vtkCamera, pyvista.Plotter, "
                         f"a dict, [position, focal_point, view_up] or None; got {type(camera).__name__}")

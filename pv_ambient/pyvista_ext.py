@@ -103,6 +103,9 @@ def add_ambient_volume(plotter, grid, *, model="emission_absorption", transfer_f
                        scalars=None, display=None, **render_options):
     """Render ``grid`` with the plotter's camera and window size and add it as a textured plane.
 
+    In a plotter with subplots the active subplot's camera and size (its share of the window)
+    are used; ``window_size=`` overrides the size.
+
     Parameters
     ----------
     plotter : pyvista.Plotter
@@ -135,7 +138,7 @@ def add_ambient_volume(plotter, grid, *, model="emission_absorption", transfer_f
         plotter.camera_position = "iso"
         plotter.renderer.reset_camera(bounds=r.bounds)
         plotter.camera_set = True
-    cam, size = as_camera(plotter, bounds=r.bounds)
+    cam, size = as_camera(plotter, window_size=render_options.pop("window_size", None), bounds=r.bounds)
     res = r.render(camera=cam, window_size=size, model=model, **render_options)
     actor = add_result_plane(plotter, res, **(display or {}))
     return actor, res

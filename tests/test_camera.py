@@ -90,3 +90,25 @@ def test_as_camera_errors():
         as_camera(42, bounds=(0, 1, 0, 1, 0, 1))
     with pytest.raises(ValueError, match="window_size"):
         as_camera(None, window_size=(0, 10), bounds=(0, 1, 0, 1, 0, 1))
+
+
+def test_plotter_subplot_size_and_explicit_window_size():
+    import pyvista as pv
+
+    import pv_ambient
+    from pv_ambient import datasets
+
+    pl = pv.Plotter(off_screen=True, shape=(1, 2), window_size=(200, 80))
+    pl.subplot(0, 1)
+    _, size = pa_as_camera(pl)
+    assert size == (100, 80)  # half the window: the subplot's viewport
+    grid = datasets.cloud(n=12)
+    _, res = pv_ambient.add_ambient_volume(pl, grid, window_size=(30, 20))
+    assert res.window_size == (30, 20)
+    pl.close()
+
+
+def pa_as_camera(pl):
+    from pv_ambient.camera import as_camera
+
+    return as_camera(pl)
