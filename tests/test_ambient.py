@@ -161,6 +161,10 @@ def test_auto_rules():
     assert res.metadata["model"] == "ambient_scattering"
     tab = [v for k, v in r._cache.items() if k[0] == "table"][0]
     assert tab.D.shape[2] == 1
+    # "accurate" asks for the measured most accurate noise-free model: flux-limited diffusion
+    res = r.render(camera=CAM, window_size=SIZE, model="auto", quality="accurate")
+    assert res.metadata["model"] == "diffusion"
+    assert any(k[0] == "diffusion" and k[-1] is True for k in r._cache)
 
 
 def test_ambient_occlusion_homogeneous_box():
