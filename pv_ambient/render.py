@@ -213,6 +213,9 @@ class Renderer:
             out = np.zeros(sig.shape + (4,), np.float32)
             out[..., 0] = mean_extinction(sig, sp, radius)
             for c in range(3):
+                if c > 0 and np.array_equal(alb[..., c], alb[..., c - 1]):
+                    out[..., 1 + c] = out[..., c]  # grey albedo: one box mean serves every channel
+                    continue
                 ms = mean_extinction(np.ascontiguousarray(sig * alb[..., c]), sp, radius)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     out[..., 1 + c] = np.where(out[..., 0] > 0, np.clip(ms / out[..., 0], 0.0, 1.0), 0.0)
@@ -487,11 +490,9 @@ class Renderer:
         res.metadata.setdefault("time_render", res.metadata.get("time", 0.0))
         res.metadata["denoised"] = bool(denoise)
         if denoise:
-            import time as _time
-
-            t = _time.perf_counter()
+            t = time.perf_counter()
             res.radiance = denoise_radiance(res.radiance)  # std_error stays the un-denoised one
-            res.metadata["time_denoise"] = _time.perf_counter() - t
+            res.metadata["time_denoise"] = time.perf_counter() - t
             res.metadata["time_render"] += res.metadata["time_denoise"]
         return res
 

@@ -35,11 +35,9 @@ def trilinear(g, x, y, z):
 
 
 @scalar
-def trilinear_c(g, x, y, z, c):
-    """Trilinear value of component ``c`` of the 4D array ``g`` (nx, ny, nz, ncomp)."""
-    i0, i1, fx = cell_coords(x, g.shape[0])
-    j0, j1, fy = cell_coords(y, g.shape[1])
-    k0, k1, fz = cell_coords(z, g.shape[2])
+def corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c):
+    """Component ``c`` of the 4D array ``g`` interpolated between located corners (see
+    :func:`cell_coords`): lets several components share one location."""
     c00 = g[i0, j0, k0, c] + fx * (g[i1, j0, k0, c] - g[i0, j0, k0, c])
     c10 = g[i0, j1, k0, c] + fx * (g[i1, j1, k0, c] - g[i0, j1, k0, c])
     c01 = g[i0, j0, k1, c] + fx * (g[i1, j0, k1, c] - g[i0, j0, k1, c])
@@ -50,32 +48,26 @@ def trilinear_c(g, x, y, z, c):
 
 
 @scalar
-def trilinear4(g, x, y, z):
-    """Trilinear values of the four components of ``g`` (nx, ny, nz, 4), sharing the weights."""
+def locate(g, x, y, z):
+    """Corners and fractions of index-space point (x, y, z) in ``g`` (clamped, :func:`cell_coords`)."""
     i0, i1, fx = cell_coords(x, g.shape[0])
     j0, j1, fy = cell_coords(y, g.shape[1])
     k0, k1, fz = cell_coords(z, g.shape[2])
-    w000 = (1.0 - fx) * (1.0 - fy) * (1.0 - fz)
-    w100 = fx * (1.0 - fy) * (1.0 - fz)
-    w010 = (1.0 - fx) * fy * (1.0 - fz)
-    w110 = fx * fy * (1.0 - fz)
-    w001 = (1.0 - fx) * (1.0 - fy) * fz
-    w101 = fx * (1.0 - fy) * fz
-    w011 = (1.0 - fx) * fy * fz
-    w111 = fx * fy * fz
-    v0 = 0.0
-    v1 = 0.0
-    v2 = 0.0
-    v3 = 0.0
-    for c in range(4):
-        v = (w000 * g[i0, j0, k0, c] + w100 * g[i1, j0, k0, c] + w010 * g[i0, j1, k0, c] + w110 * g[i1, j1, k0, c]
-             + w001 * g[i0, j0, k1, c] + w101 * g[i1, j0, k1, c] + w011 * g[i0, j1, k1, c] + w111 * g[i1, j1, k1, c])
-        if c == 0:
-            v0 = v
-        elif c == 1:
-            v1 = v
-        elif c == 2:
-            v2 = v
-        else:
-            v3 = v
-    return v0, v1, v2, v3
+    return i0, i1, fx, j0, j1, fy, k0, k1, fz
+
+
+@scalar
+def trilinear_c(g, x, y, z, c):
+    """Trilinear value of component ``c`` of the 4D array ``g`` (nx, ny, nz, ncomp)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(g, x, y, z)
+    return corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c)
+
+
+@scalar
+def trilinear4(g, x, y, z):
+    """Trilinear values of the four components of ``g`` (nx, ny, nz, 4), located once."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(g, x, y, z)
+    return (corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, 0),
+            corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, 1),
+            corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, 2),
+            corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3))

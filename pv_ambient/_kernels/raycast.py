@@ -23,7 +23,7 @@ import math
 
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .interp import cell_coords, trilinear, trilinear4, trilinear_c
+from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_exit, block_of
 from .medium import MODE_GRID, lut_coords, lut_value
 from .phase import phase_eval
@@ -193,35 +193,16 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
     light from the diffusion solve (DESIGN §4b), ω_o = −d toward the camera. ``diff`` is
     (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components."""
-    i0, i1, fx = cell_coords(x, diff.shape[0])
-    j0, j1, fy = cell_coords(y, diff.shape[1])
-    k0, k1, fz = cell_coords(z, diff.shape[2])
-    w000 = (1.0 - fx) * (1.0 - fy) * (1.0 - fz)
-    w100 = fx * (1.0 - fy) * (1.0 - fz)
-    w010 = (1.0 - fx) * fy * (1.0 - fz)
-    w110 = fx * fy * (1.0 - fz)
-    w001 = (1.0 - fx) * (1.0 - fy) * fz
-    w101 = fx * (1.0 - fy) * fz
-    w011 = (1.0 - fx) * fy * fz
-    w111 = fx * fy * fz
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(diff, x, y, z)
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
     for c in range(3):
-        v = 0.0
-        for m in range(4):
-            q = 4 * c + m
-            a = (w000 * diff[i0, j0, k0, q] + w100 * diff[i1, j0, k0, q] + w010 * diff[i0, j1, k0, q]
-                 + w110 * diff[i1, j1, k0, q] + w001 * diff[i0, j0, k1, q] + w101 * diff[i1, j0, k1, q]
-                 + w011 * diff[i0, j1, k1, q] + w111 * diff[i1, j1, k1, q])
-            if m == 0:
-                v += a
-            elif m == 1:
-                v -= 3.0 * g * a * dx
-            elif m == 2:
-                v -= 3.0 * g * a * dy
-            else:
-                v -= 3.0 * g * a * dz
+        q = 4 * c
+        v = (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
+             - 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
+                          + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
+                          + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz))
         v = max(v, 0.0) * INV_4PI_RC
         if c == 0:
             out0 = v

@@ -90,6 +90,28 @@ def axis_exit(p, q, a, block, m):
 
 
 @scalar
+def block_span(px, py, pz, qx, qy, qz, a, b, c, block, mx, my, mz, t, t1):
+    """Exits of block (a, b, c) along each axis and overall, ``(tx, ty, tz, tb)``; ``tb`` is
+    clipped to ``t1`` and never behind ``t``, whatever the rounding."""
+    tx = axis_exit(px, qx, a, block, mx)
+    ty = axis_exit(py, qy, b, block, my)
+    tz = axis_exit(pz, qz, c, block, mz)
+    return tx, ty, tz, max(min(min(tx, ty), min(tz, t1)), t)
+
+
+@scalar
+def next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz):
+    """The block entered at ``tb``: step every axis whose exit is reached (DDA)."""
+    if tx <= tb:
+        a += 1 if qx > 0.0 else -1
+    if ty <= tb:
+        b += 1 if qy > 0.0 else -1
+    if tz <= tb:
+        c += 1 if qz > 0.0 else -1
+    return a, b, c
+
+
+@scalar
 def delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block, k, dim):
     """Sample the first real collision on ``[t0, t1)`` by delta tracking.
 
@@ -104,11 +126,7 @@ def delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
     b = block_of(py + t * qy, block, my)
     c = block_of(pz + t * qz, block, mz)
     while t < t1:
-        # The block's exit along each axis and overall (never behind t, whatever the rounding).
-        tx = axis_exit(px, qx, a, block, mx)
-        ty = axis_exit(py, qy, b, block, my)
-        tz = axis_exit(pz, qz, c, block, mz)
-        tb = max(min(min(tx, ty), min(tz, t1)), t)
+        tx, ty, tz, tb = block_span(px, py, pz, qx, qy, qz, a, b, c, block, mx, my, mz, t, t1)
         m = maj[a, b, c]
         if m > 0.0:
             # Tentative collisions of the block's homogeneous majorant medium.
@@ -129,12 +147,7 @@ def delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
         t = tb
         if tb >= t1:
             break
-        if tx <= tb:
-            a += 1 if qx > 0.0 else -1
-        if ty <= tb:
-            b += 1 if qy > 0.0 else -1
-        if tz <= tb:
-            c += 1 if qz > 0.0 else -1
+        a, b, c = next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz)
     return False, t1, 0.0, 0, 0, 0.0, dim
 
 
@@ -153,10 +166,7 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
     b = block_of(py + t * qy, block, my)
     c = block_of(pz + t * qz, block, mz)
     while t < t1:
-        tx = axis_exit(px, qx, a, block, mx)
-        ty = axis_exit(py, qy, b, block, my)
-        tz = axis_exit(pz, qz, c, block, mz)
-        tb = max(min(min(tx, ty), min(tz, t1)), t)
+        tx, ty, tz, tb = block_span(px, py, pz, qx, qy, qz, a, b, c, block, mx, my, mz, t, t1)
         m = maj[a, b, c]
         if m > 0.0:
             inv = 1.0 / m
@@ -182,12 +192,7 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
         t = tb
         if tb >= t1:
             break
-        if tx <= tb:
-            a += 1 if qx > 0.0 else -1
-        if ty <= tb:
-            b += 1 if qy > 0.0 else -1
-        if tz <= tb:
-            c += 1 if qz > 0.0 else -1
+        a, b, c = next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz)
     return T, dim
 
 
