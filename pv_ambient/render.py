@@ -317,7 +317,7 @@ class Renderer:
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
-               propagation=DEFAULT_PROPAGATION, table_quality=None, **model_options) -> RenderResult:
+               propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, **model_options) -> RenderResult:
         """Render one image.
 
         Parameters
@@ -377,6 +377,12 @@ class Renderer:
             the preset's when None.
         progress_bar : bool, default: False
             Show a tqdm progress bar over image tiles.
+        ray_end : numpy.ndarray, optional
+            ``(H, W)`` world distance along each pixel's camera ray at which opaque geometry
+            stops it (``inf`` where there is none); the radiance then holds only the volume in
+            front of the geometry (plus ``T·background``), for compositing over the geometry
+            with ``alpha`` — what :func:`pv_ambient.add_ambient_volume` does with the plotter's
+            depth buffer. Ray-cast models only.
         **model_options
             Knobs of other models (see ``MODEL_OPTIONS``); unknown names are an error.
 
@@ -413,7 +419,10 @@ class Renderer:
         amb = check_real(ambient_radiance, "ambient_radiance", lo=0.0)
         ph = as_phase(phase)
         radius = self._radius(radius, model)
+        t_end = _ray_end(ray_end, size)
         if model == "path_traced":
+            if ray_end is not None:
+                raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
             return self._path_trace(cam, size, ph, step, seed, bg, progress_bar, model_options)
         t_start = time.perf_counter()
         requested = model
@@ -453,7 +462,7 @@ class Renderer:
             lg = grid if grid is not None else _NO_GRID
             o = self.optics
             g = self.geometry
-            args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg)
+            args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg, t_end)
             medium = (o.mode, o.field, o.table, o.lut_lo, o.lut_inv, o.aux, self.majorant(), MAJORANT_BLOCK)
             light_args = (kind, vec, power, lg.lo, lg.inv_step, tau, ph.kind, float(ph.g), (0.25 * step) ** 2)
             self._run_tiles(MODEL_IDS[model], args, medium, light_args,
@@ -527,6 +536,19 @@ class Renderer:
         finally:
             if bar is not None:
                 bar.close()
+
+
+def _ray_end(ray_end, size):
+    """The ``t_end`` array of the ray-cast driver: (1, 1) inf, or the validated (H, W) ``ray_end``."""
+    if ray_end is None:
+        return np.full((1, 1), np.inf)
+    w, h = size
+    arr = np.asarray(ray_end, dtype=np.float64)
+    if arr.shape != (h, w):
+        raise ValueError(f"ray_end must have shape (height, width) = {(h, w)}, got {arr.shape}")
+    if np.isnan(arr).any() or (arr < 0).any():
+        raise ValueError("ray_end must hold distances >= 0 (inf where no geometry), found NaN or negative values")
+    return np.ascontiguousarray(arr)
 
 
 def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=(), model="emission_absorption",

@@ -149,3 +149,29 @@ def test_input_is_not_modified():
     before = (g.copy(deep=True), g.active_scalars_name)
     pa.render(g, window_size=(8, 8))
     assert g == before[0] and g.active_scalars_name == before[1]
+
+
+def test_ray_end_stops_rays_exactly():
+    # opaque geometry at distance t_end: alpha = 1 − e^{−σ (min(t_end, t1) − t0)} exactly
+    sigma = 3.0
+    g = box_grid()
+    tf = pa.TransferFunction.from_table([0.0, 2.0], sigma_t=[0.0, 2 * sigma])
+    cam = Camera((0.3, -5, 0.2), (0, 0, 0), (0, 0, 1), view_angle=30)
+    size = (48, 40)
+    o, d = cam.rays(size)
+    lo, hi = np.full(3, -0.95), np.full(3, 0.95)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (lo - o) / d
+        b = (hi - o) / d
+    t0 = np.maximum(np.max(np.minimum(a, b), axis=-1), 0.0)
+    t1 = np.min(np.maximum(a, b), axis=-1)
+    rng = np.random.default_rng(3)
+    t_end = np.where(rng.random(t0.shape) < 0.5, t0 + rng.random(t0.shape) * 2.0, np.inf)
+    res = pa.render(g, transfer_function=tf, camera=cam, window_size=size, early_termination=0.0, ray_end=t_end)
+    chord = np.clip(np.minimum(t1, t_end) - t0, 0.0, None)
+    assert 0.2 < ((chord > 0) & np.isfinite(t_end)).mean()
+    assert np.max(np.abs(res.alpha - (1 - np.exp(-sigma * chord)))) <= 1e-4
+    with pytest.raises(ValueError, match="ray_end must have shape"):
+        pa.render(g, transfer_function=tf, camera=cam, window_size=size, ray_end=np.ones((3, 3)))
+    with pytest.raises(ValueError, match="ray_end must hold distances"):
+        pa.render(g, transfer_function=tf, camera=cam, window_size=size, ray_end=-t_end)

@@ -213,95 +213,115 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     return out0, out1, out2
 
 
+@scalar
+def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_end,
+                mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
+                radius, ball, amb,
+                phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff):
+    """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
+    docstring) and the ray's remaining transmittance; the ray stops at world distance ``t_end``
+    (opaque geometry; ``inf`` for none). The background is not added."""
+    mx, my, mz = maj.shape
+    ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, W, H)
+    px, py, pz, qx, qy, qz = index_ray(w2i, ox, oy, oz, dx, dy, dz)
+    t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+    t0 = max(t0, 0.0)
+    t1 = min(t1, t_end)
+    r = 0.0
+    gg = 0.0
+    b = 0.0
+    T = 1.0
+    if t0 < t1:
+        offset = uniform(seed, STREAM_JITTER, j * W + i, 0) if jitter else 0.0
+        t = t0
+        tnext = t0 + (1.0 - offset) * step
+        t_block = -1.0  # exit of the current non-empty block: no block lookups before it
+        while t < t1:
+            te = min(tnext, t1)
+            tm = 0.5 * (t + te)
+            x = px + tm * qx
+            y = py + tm * qy
+            z = pz + tm * qz
+            if tm >= t_block:
+                ba = block_of(x, block, mx)
+                bb = block_of(y, block, my)
+                bc = block_of(z, block, mz)
+                tex = block_exit(px, py, pz, qx, qy, qz, ba, bb, bc, block)
+                if maj[ba, bb, bc] <= 0.0:
+                    if tex > te:
+                        t = tex  # skip the empty block; realign the segment grid after it
+                        tnext = t + step
+                        continue
+                    t = te
+                    tnext = te + step
+                    continue
+                t_block = tex
+            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux, x, y, z)
+            if sig > 0.0:
+                sr = cr
+                sg = cg
+                sb = cb
+                if model != EMISSION_ABSORPTION:
+                    ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z)
+                    if model == AMBIENT_OCCLUSION:
+                        occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
+                        sr = cr + ar * occ
+                        sg = cg + ag * occ
+                        sb = cb + ab * occ
+                    else:
+                        wx = ox + tm * dx
+                        wy = oy + tm * dy
+                        wz = oz + tm * dz
+                        lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo,
+                                                  linv, tau, pkind, g, d2min)
+                        if model == AMBIENT_SCATTERING:
+                            bs, b1, b2, b3 = trilinear4(ball, x, y, z)
+                            mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow,
+                                                       llo, linv, phi, radius, radius * bs, b1, b2, b3,
+                                                       D, a_nodes, tau_lo_log, tau_dlog, d2min)
+                            lr += mr
+                            lg += mg
+                            lb += mb
+                        elif model == DIFFUSION:
+                            mr, mg, mb = diffusion_light(diff, x, y, z, dx, dy, dz, gdiff)
+                            lr += mr
+                            lg += mg
+                            lb += mb
+                        sr = ar * lr + (1.0 - ar) * er
+                        sg = ag * lg + (1.0 - ag) * eg
+                        sb = ab * lb + (1.0 - ab) * eb
+                e = math.exp(-sig * (te - t))
+                w = T * (1.0 - e)
+                r += w * sr
+                gg += w * sg
+                b += w * sb
+                T *= e
+                if T < ert:
+                    break
+            t = te
+            tnext = te + step
+    return r, gg, b, T
+
+
 @driver
-def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, row0, row1,
+def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, row0, row1,
                   mode, field, table, lut_lo, lut_inv, aux, maj, block,
                   lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
                   radius, ball, amb,
                   phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
                   out_rad, out_alpha):
-    """Render rows [row0, row1) of the image with ray-cast ``model`` (see the module docstring)."""
+    """Render rows [row0, row1) of the image with ray-cast ``model`` (:func:`march_pixel` per
+    pixel); ``t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
     H, W = out_alpha.shape
-    mx, my, mz = maj.shape
+    per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
     for j in prange(row0, row1):
         for i in range(W):
-            ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, W, H)
-            px, py, pz, qx, qy, qz = index_ray(w2i, ox, oy, oz, dx, dy, dz)
-            t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
-            t0 = max(t0, 0.0)
-            r = 0.0
-            gg = 0.0
-            b = 0.0
-            T = 1.0
-            if t0 < t1:
-                offset = uniform(seed, STREAM_JITTER, j * W + i, 0) if jitter else 0.0
-                t = t0
-                tnext = t0 + (1.0 - offset) * step
-                t_block = -1.0  # exit of the current non-empty block: no block lookups before it
-                while t < t1:
-                    te = min(tnext, t1)
-                    tm = 0.5 * (t + te)
-                    x = px + tm * qx
-                    y = py + tm * qy
-                    z = pz + tm * qz
-                    if tm >= t_block:
-                        ba = block_of(x, block, mx)
-                        bb = block_of(y, block, my)
-                        bc = block_of(z, block, mz)
-                        tex = block_exit(px, py, pz, qx, qy, qz, ba, bb, bc, block)
-                        if maj[ba, bb, bc] <= 0.0:
-                            if tex > te:
-                                t = tex  # skip the empty block; realign the segment grid after it
-                                tnext = t + step
-                                continue
-                            t = te
-                            tnext = te + step
-                            continue
-                        t_block = tex
-                    sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux,
-                                                                    x, y, z)
-                    if sig > 0.0:
-                        if model == EMISSION_ABSORPTION:
-                            sr, sg, sb = cr, cg, cb
-                        else:
-                            ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z)
-                        if model == AMBIENT_OCCLUSION:
-                            occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
-                            sr = cr + ar * occ
-                            sg = cg + ag * occ
-                            sb = cb + ab * occ
-                        elif model != EMISSION_ABSORPTION:
-                            wx = ox + tm * dx
-                            wy = oy + tm * dy
-                            wz = oz + tm * dz
-                            lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo,
-                                                      linv, tau, pkind, g, d2min)
-                            if model == AMBIENT_SCATTERING:
-                                bs, b1, b2, b3 = trilinear4(ball, x, y, z)
-                                mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow,
-                                                           llo, linv, phi, radius, radius * bs, b1, b2, b3,
-                                                           D, a_nodes, tau_lo_log, tau_dlog, d2min)
-                                lr += mr
-                                lg += mg
-                                lb += mb
-                            elif model == DIFFUSION:
-                                mr, mg, mb = diffusion_light(diff, x, y, z, dx, dy, dz, gdiff)
-                                lr += mr
-                                lg += mg
-                                lb += mb
-                            sr = ar * lr + (1.0 - ar) * er
-                            sg = ag * lg + (1.0 - ag) * eg
-                            sb = ab * lb + (1.0 - ab) * eb
-                        e = math.exp(-sig * (te - t))
-                        w = T * (1.0 - e)
-                        r += w * sr
-                        gg += w * sg
-                        b += w * sb
-                        T *= e
-                        if T < ert:
-                            break
-                    t = te
-                    tnext = te + step
+            te = t_end[j, i] if per_pixel else t_end[0, 0]
+            r, gg, b, T = march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, te,
+                                      mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                                      lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
+                                      radius, ball, amb, phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff)
             out_rad[j, i, 0] = r + T * bg[0]
             out_rad[j, i, 1] = gg + T * bg[1]
             out_rad[j, i, 2] = b + T * bg[2]
