@@ -23,6 +23,8 @@ def _cmd_render(args) -> int:
     scene = load_scene(args.scene)
     if args.model:
         scene.render_kwargs["model"] = args.model
+    if args.backend:
+        scene.renderer_kwargs["backend"] = args.backend
     t = time.perf_counter()
     res = render_scene(scene, progress_bar=args.progress)
     elapsed = time.perf_counter() - t
@@ -38,7 +40,8 @@ def _cmd_render(args) -> int:
     if args.radiance:
         Path(args.radiance).parent.mkdir(parents=True, exist_ok=True)
         res.save(args.radiance)
-    print(f"rendered {res.metadata['model']} {res.window_size[0]}x{res.window_size[1]} in {elapsed:.2f} s -> {out}"
+    print(f"rendered {res.metadata['model']} {res.window_size[0]}x{res.window_size[1]} on "
+          f"{res.metadata.get('backend', 'cpu')} in {elapsed:.2f} s -> {out}"
           + (f", radiance -> {args.radiance}" if args.radiance else ""))
     return 0
 
@@ -83,12 +86,17 @@ def _cmd_demo(args) -> int:
     return 0
 
 
-BENCHMARKS = {"trade": "trade.py", "ea": "ea_vs_vtk.py", "ambient": "ambient.py"}
+BENCHMARKS = {"trade": "trade.py", "ea": "ea_vs_vtk.py", "ambient": "ambient.py", "gpu": "gpu.py"}
 
 
 def _cmd_bench(args) -> int:
     rest = list(args.rest)
     which = rest.pop(0) if rest and rest[0] in BENCHMARKS else "trade"
+    if "--backend" in rest:  # ``bench --backend cuda``: the GPU benchmark (benchmarks/gpu.py)
+        i = rest.index("--backend")
+        if i + 1 < len(rest) and rest[i + 1] == "cuda":
+            which = "gpu"
+            del rest[i:i + 2]
     here = Path(__file__).resolve().parent.parent / "benchmarks" / BENCHMARKS[which]
     if not here.exists():
         print(f"benchmarks/{BENCHMARKS[which]} is part of the source tree; run from a checkout", file=sys.stderr)
@@ -112,6 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--tonemap", choices=("clip", "reinhard", "aces"), help="PNG tone map")
     r.add_argument("--srgb", action="store_true", help="sRGB-encode the PNG")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
+    r.add_argument("--backend", choices=("auto", "cpu", "cuda"),
+                   help="where the kernels run (overrides the scene's 'backend'; default auto)")
     r.set_defaults(func=_cmd_render)
     d = sub.add_parser("demo", help="render the embedded supernova dataset (EA and ambient scattering) "
                                     "side by side with VTK")
@@ -120,7 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--size", type=int, default=400, help="panel size in pixels")
     d.set_defaults(func=_cmd_demo)
     b = sub.add_parser("bench", help="run a benchmark table: trade (default: every model against the path-traced "
-                                     "reference), ea (EA vs VTK), ambient (frame costs); extra arguments go to it")
+                                     "reference), ea (EA vs VTK), ambient (frame costs), gpu (CUDA vs CPU; also "
+                                     "'bench --backend cuda'); extra arguments go to it")
     b.add_argument("rest", nargs=argparse.REMAINDER)
     b.set_defaults(func=_cmd_bench)
     return p

@@ -93,11 +93,13 @@ LIGHT_SNAP = 1e-9
 DIRECTION_TIE = 1e-9
 
 
-def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP) -> np.ndarray:
+def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP, device_cache=None) -> np.ndarray:
     """Optical depth from ``light`` to every node of ``grid`` (float32, same shape).
 
     ``sig_l`` is :func:`sigma_on_grid`. A point light inside the box has τ = 0 at its position;
-    nodes see the light through the medium only (vacuum outside the box).
+    nodes see the light through the medium only (vacuum outside the box). With a
+    :class:`pv_ambient.backend.DeviceCache` the sweeps run on the GPU (the same per-node kernel)
+    and the result also stays there.
     """
     from ._kernels.lightvol import sweep_tau
 
@@ -131,6 +133,11 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP) -> np.ndar
         lx, ly, lz = v
     else:  # pragma: no cover - lights are validated upstream
         raise TypeError(f"unknown light {light!r}")
+    if device_cache is not None:
+        from .backend import sweep
+
+        sweep(device_cache, sig_l, grid.B, is_point, float(lx), float(ly), float(lz), sweeps, int(jump), out)
+        return out
     for a, s in sweeps:
         lat = [shape[i] for i in range(3) if i != a]
         hist = np.zeros([jump + 1] + lat, np.float64)

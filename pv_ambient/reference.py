@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from ._validation import check_int, check_real, check_rgb
+from .backend import resolve_backend
 from .lights import pack_lights
 from .result import RenderResult
 
@@ -53,7 +54,7 @@ def relative_error(radiance, std_error, alpha):
 
 def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_per_pixel=64, target_error=None,
                max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False, batch=16,
-               light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH) -> RenderResult:
+               light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend="cpu") -> RenderResult:
     """Render the unbiased path-traced reference of a :class:`~pv_ambient.Renderer`'s scene.
 
     Parameters
@@ -93,6 +94,9 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         Samples per majorant block (smaller: tighter majorants, more block crossings).
     rr_depth : int, default: 3
         Collisions before Russian roulette starts.
+    backend : {"auto", "cpu", "cuda"}, default: "cpu"
+        Where the paths are traced (:mod:`pv_ambient.backend`): the same per-path kernel and
+        counter-based random numbers on both, so a seed gives the same image up to rounding.
 
     Returns
     -------
@@ -129,6 +133,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         light_clamp = 0.25 * renderer.default_step("balanced")
     light_clamp = check_real(light_clamp, "light_clamp", lo=0.0)
     ph = as_phase(phase)
+    backend = resolve_backend(backend)
 
     t_start = time.perf_counter()
     w, h = size
@@ -149,6 +154,13 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
                 o.lut_lo, o.lut_inv, o.aux, renderer.majorant(block), block, kind, vec, power, ph.kind, float(ph.g),
                 light_clamp * light_clamp, bg, depth, rr_depth, seed)
         bar = None
+        sums = None
+        if backend == "cuda":
+            from . import backend as bk
+
+            bk.check_fits(renderer.device_cache, [a for a in args if isinstance(a, np.ndarray)],
+                          sum_rad.nbytes + sum_sq.nbytes + sum_hit.nbytes)
+            sums = bk.PathSums(h, w)
         if progress_bar:
             from tqdm.auto import tqdm
 
@@ -156,11 +168,16 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         try:
             while n < spp:
                 s1 = min(n + batch, spp)
-                pathtrace_image(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
+                if sums is None:
+                    pathtrace_image(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
+                else:
+                    bk.pathtrace(renderer.device_cache, args, n, s1, sums)
                 if bar is not None:
                     bar.update(s1 - n)
                 n = s1
                 if target is not None and n >= 2:
+                    if sums is not None:
+                        sums.download(sum_rad, sum_sq, sum_hit)
                     mean, se = _moments(sum_rad, sum_sq, n)
                     rel = relative_error(mean, se, sum_hit)
                     if rel <= target:
@@ -168,6 +185,8 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         finally:
             if bar is not None:
                 bar.close()
+        if sums is not None:
+            sums.download(sum_rad, sum_sq, sum_hit)
     mean, se = _moments(sum_rad, sum_sq, n)
     alpha = sum_hit / n
     if target is None or not np.isfinite(rel):
@@ -176,7 +195,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
             "max_depth": max_depth, "target_error": target, "relative_error": rel, "window_size": size,
             "phase": repr(ph), "lights": len(renderer.lights), "background": bg.tolist(),
             "light_clamp": light_clamp, "majorant_block": block, "rr_depth": rr_depth, "batch": batch,
-            "backend": "cpu"}
+            "backend": backend, "device_memory": renderer._device.nbytes if backend == "cuda" else 0}
     return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
                         metadata=meta, std_error=se.astype(np.float32))
 

@@ -8,11 +8,13 @@ moving the camera re-runs only the ray cast.
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
 from ._grid import Volume, volume_from_image
 from ._validation import check_choice, check_int, check_real, check_rgb
+from .backend import resolve_backend
 from .camera import as_camera
 from .lights import as_lights, pack_lights
 from .result import RenderResult
@@ -43,7 +45,7 @@ QUALITY_PRESETS = {
     "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256},
 }
 #: Options that belong to particular models (accepted by every render call, used where they apply).
-MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited", "backend",
+MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
                  "target_error"}
 #: Every option a scene file may carry at top level besides the common ones.
 SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
@@ -102,8 +104,12 @@ class Renderer:
     """
 
     def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=(),
-                 preference="point", nan_policy="raise"):
+                 preference="point", nan_policy="raise", backend="auto"):
+        from .backend import BACKENDS
+
         check_choice(preference, "preference", ("point", "cell"))
+        check_choice(backend, "backend", BACKENDS)
+        self.backend = backend
         self.volume = grid if isinstance(grid, Volume) else volume_from_image(grid, preference=preference)
         self.transfer_function = as_transfer_function(transfer_function)
         t = time.perf_counter()
@@ -112,6 +118,17 @@ class Renderer:
         self.timings = {"classify": time.perf_counter() - t}
         self.lights = as_lights(lights)
         self._cache = {}
+        self._device = None  # backend.DeviceCache once the CUDA backend has run
+        self._running = "cpu"  # the backend of the render in progress (light volumes follow it)
+
+    @property
+    def device_cache(self):
+        """The :class:`pv_ambient.backend.DeviceCache` of the CUDA backend (created on first use)."""
+        if self._device is None:
+            from .backend import DeviceCache
+
+            self._device = DeviceCache()
+        return self._device
 
     @property
     def geometry(self):
@@ -168,7 +185,9 @@ class Renderer:
         key = ("tau", light, grid.key())
         if key not in self._cache:
             t = time.perf_counter()
-            self._cache[key] = optical_depth(self.sigma_on_light_grid(grid), grid, self.geometry, light)
+            dev = self.device_cache if self._running == "cuda" else None
+            self._cache[key] = optical_depth(self.sigma_on_light_grid(grid), grid, self.geometry, light,
+                                             device_cache=dev)
             self.timings[f"light volume {light}"] = time.perf_counter() - t
         return self._cache[key]
 
@@ -317,7 +336,8 @@ class Renderer:
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
-               propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, **model_options) -> RenderResult:
+               propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
+               **model_options) -> RenderResult:
         """Render one image.
 
         Parameters
@@ -383,6 +403,12 @@ class Renderer:
             front of the geometry (plus ``T·background``), for compositing over the geometry
             with ``alpha`` — what :func:`pv_ambient.add_ambient_volume` does with the plotter's
             depth buffer. Ray-cast models only.
+        backend : {"auto", "cpu", "cuda"}, optional
+            Where the kernels run (:mod:`pv_ambient.backend`); the renderer's ``backend`` when
+            None. ``auto`` takes CUDA when numba-cuda and a GPU are there, and falls back to the
+            CPU with a warning when the scene does not fit in the GPU's free memory;
+            ``metadata["backend"]`` says which ran and ``metadata["device_memory"]`` the bytes
+            the scene holds on the GPU.
         **model_options
             Knobs of other models (see ``MODEL_OPTIONS``); unknown names are an error.
 
@@ -420,10 +446,22 @@ class Renderer:
         ph = as_phase(phase)
         radius = self._radius(radius, model)
         t_end = _ray_end(ray_end, size)
+        asked = self.backend if backend is None else backend
+        backend = resolve_backend(asked)
         if model == "path_traced":
             if ray_end is not None:
                 raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
-            return self._path_trace(cam, size, ph, step, seed, bg, progress_bar, model_options)
+            return self._path_trace(cam, size, ph, step, seed, bg, progress_bar, model_options, backend)
+        self._running = backend
+        try:
+            return self._render(cam, size, model, quality, step, jitter, seed, bg, ert, amb, ph, radius, t_end,
+                                light_resolution, table_quality, propagation, progress_bar, backend, asked,
+                                model_options)
+        finally:
+            self._running = "cpu"
+
+    def _render(self, cam, size, model, quality, step, jitter, seed, bg, ert, amb, ph, radius, t_end,
+                light_resolution, table_quality, propagation, progress_bar, backend, asked, model_options):
         t_start = time.perf_counter()
         requested = model
         grid = self.light_grid(light_resolution) if model != "emission_absorption" else None
@@ -465,13 +503,16 @@ class Renderer:
             args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg, t_end)
             medium = (o.mode, o.field, o.table, o.lut_lo, o.lut_inv, o.aux, self.majorant(), MAJORANT_BLOCK)
             light_args = (kind, vec, power, lg.lo, lg.inv_step, tau, ph.kind, float(ph.g), (0.25 * step) ** 2)
-            self._run_tiles(MODEL_IDS[model], args, medium, light_args,
-                            (radius, ball, amb) + tab_args + (diff, float(ph.mean_cosine)), rad, alpha, progress_bar,
-                            model)
+            tail = medium + light_args + (radius, ball, amb) + tab_args + (diff, float(ph.mean_cosine))
+            if backend == "cuda":
+                backend = self._run_cuda((MODEL_IDS[model],) + args, tail, rad, alpha, asked)
+            if backend == "cpu":
+                self._run_tiles((MODEL_IDS[model],) + args, tail, rad, alpha, progress_bar, model)
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": requested, "quality": quality, "step": step,
-                "window_size": size, "jitter": bool(jitter), "seed": seed, "backend": "cpu",
+                "window_size": size, "jitter": bool(jitter), "seed": seed, "backend": backend,
+                "device_memory": self._device.nbytes if backend == "cuda" else 0,
                 "lights": len(lights), "radius": radius, "phase": repr(ph),
                 "propagation": propagation if model == "ambient_scattering" else None,
                 "flux_limited": bool(model_options.get("flux_limited", False)) if model == "diffusion" else None,
@@ -481,7 +522,7 @@ class Renderer:
                 "early_termination": ert}
         return RenderResult(radiance=rad, alpha=alpha, camera=cam, metadata=meta)
 
-    def _path_trace(self, cam, size, ph, step, seed, bg, progress_bar, options):
+    def _path_trace(self, cam, size, ph, step, seed, bg, progress_bar, options, backend="cpu"):
         from .reference import path_trace
 
         denoise = options.get("denoise", False)
@@ -494,13 +535,18 @@ class Renderer:
                 denoise_radiance(None)  # raises the ImportError that names the extra
         res = path_trace(self, cam, size, phase=ph, samples_per_pixel=options.get("samples_per_pixel", 64),
                          target_error=options.get("target_error"), max_depth=options.get("max_depth"), seed=seed,
-                         background=bg, progress_bar=progress_bar, light_clamp=0.25 * step)
+                         background=bg, progress_bar=progress_bar, light_clamp=0.25 * step, backend=backend)
         res.metadata.setdefault("time_prepare", 0.0)
         res.metadata.setdefault("time_render", res.metadata.get("time", 0.0))
         res.metadata["denoised"] = bool(denoise)
         if denoise:
             t = time.perf_counter()
-            res.radiance = denoise_radiance(res.radiance)  # std_error stays the un-denoised one
+            from .denoise import albedo_guide
+
+            # albedo guide (first-collision albedo × coverage, noise-free) and mean preservation:
+            # measured in pv_ambient.denoise; std_error stays the un-denoised one
+            res.radiance = denoise_radiance(res.radiance, albedo=albedo_guide(self, cam, size, step=step))
+            res.metadata["denoise_guide"] = "albedo"
             res.metadata["time_denoise"] = time.perf_counter() - t
             res.metadata["time_render"] += res.metadata["time_denoise"]
         return res
@@ -519,7 +565,22 @@ class Renderer:
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
 
-    def _run_tiles(self, model_id, args, medium, light_args, ao_args, rad, alpha, progress_bar, name):
+    def _run_cuda(self, head, tail, rad, alpha, asked):
+        """The ray cast on the GPU; returns the backend that ran ("cpu" after a fallback)."""
+        from . import backend as bk
+
+        arrays = [a for a in head + tail if isinstance(a, np.ndarray)]
+        try:
+            bk.check_fits(self.device_cache, arrays, rad.nbytes + alpha.nbytes)
+        except bk.DeviceMemoryError as exc:
+            if asked == "cuda":
+                raise
+            warnings.warn(f"{exc}; rendering on the CPU instead", RuntimeWarning, stacklevel=4)
+            return "cpu"
+        bk.raycast(self.device_cache, (head, tail), 0, rad.shape[0], rad, alpha)
+        return "cuda"
+
+    def _run_tiles(self, head, tail, rad, alpha, progress_bar, name):
         from ._kernels.raycast import raycast_image
 
         tiles = _tiles(rad.shape[0], 16 if progress_bar else 1)
@@ -530,7 +591,7 @@ class Renderer:
             bar = tqdm(total=len(tiles), desc=name, unit="tile")
         try:
             for r0, r1 in tiles:
-                raycast_image(model_id, *args, r0, r1, *medium, *light_args, *ao_args, rad, alpha)
+                raycast_image(*head, r0, r1, *tail, rad, alpha)
                 if bar is not None:
                     bar.update(1)
         finally:

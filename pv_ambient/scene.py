@@ -20,12 +20,17 @@ A scene file is a JSON object. Keys (all but ``volume`` optional)::
      "quality": "balanced",                 # "preview" | "balanced" | "accurate"
      "background": [0, 0, 0],               # constant background radiance
      "step": null, "seed": 0, "jitter": false,
+     "backend": "auto",                     # "auto" | "cpu" | "cuda" (since pv_ambient 0.2.0)
      "display": {"exposure": 0.0, "tonemap": "clip", "srgb": false}}   # PNG conversion only
 
 Units (DESIGN §1): world units are the grid's; σt in 1/world unit; a point light's intensity in
 W/sr gives irradiance I/d² at distance d; a directional light's irradiance is per unit area;
 ``view_angle`` is VTK's vertical angle in degrees. The radiance written by
 ``--radiance OUT.npy`` is float32 ``(H, W, 3)``, linear, top row first, background included.
+
+``backend`` (added in pv_ambient 0.2.0, optional, format version unchanged: files without it
+render as before) says where the kernels run (:mod:`pv_ambient.backend`); the images of the two
+backends agree to float rounding.
 
 Unknown top-level keys are reported with a warning and ignored (a newer file read by an older
 version); unknown keys inside ``camera``, ``lights``, ``transfer_function``, ``image`` and
@@ -40,12 +45,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ._validation import check_choice, check_window_size
+from .backend import BACKENDS
 from .render import SCENE_OPTIONS as MODEL_KEYS
 from .render import QUALITY_STEP
 
 SCENE_VERSION = 1
 TOP_KEYS = {"version", "volume", "scalars", "transfer_function", "phase", "lights", "camera", "image", "model",
-            "quality", "background", "step", "seed", "jitter", "display", "preference", "nan_policy"}
+            "quality", "background", "step", "seed", "jitter", "display", "preference", "nan_policy",
+            "backend"}
 #: extra render knobs a scene may carry at top level (model options)
 
 
@@ -104,7 +111,8 @@ def parse_scene(data, base_dir=".") -> Scene:
     grid = _load_volume(data["volume"], base)
     rk = {"transfer_function": data.get("transfer_function"), "scalars": data.get("scalars"),
           "lights": data.get("lights", ()), "preference": data.get("preference", "point"),
-          "nan_policy": data.get("nan_policy", "raise")}
+          "nan_policy": data.get("nan_policy", "raise"),
+          "backend": check_choice(data.get("backend", "auto"), "backend", BACKENDS)}
     image = data.get("image", {"width": 512, "height": 512})
     if not isinstance(image, dict) or set(image) - {"width", "height"}:
         raise ValueError(f"image must be {{'width': int, 'height': int}}, got {image!r}")

@@ -9,7 +9,12 @@ Two kinds of compiled functions exist:
     ``njit`` dispatcher; a CUDA backend compiles the same functions as device functions.
 
 ``driver``
-    Thin loops that run scalar functions over an image or a grid: a ``prange`` loop on the CPU.
+    Thin loops that run scalar functions over an image or a grid: a ``prange`` loop on the CPU;
+    for CUDA, a one-thread-per-pixel (or per-node) kernel in :mod:`pv_ambient._kernels.cuda`.
+
+The CUDA target compiles the *same* Python source of every scalar function: :func:`cuda_device`
+takes the function's code and rebinds the names of the scalar functions it calls to their CUDA
+device versions (recursively), so the physics exists once and only the drivers differ.
 
 Policy (one place, never copied): ``cache=True`` so compilation is paid once per machine,
 ``error_model="numpy"`` (no exception checks on division), and an explicit fastmath *set* that
@@ -25,9 +30,54 @@ FASTMATH = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
 _COMMON = dict(cache=True, error_model="numpy", fastmath=set(FASTMATH), nogil=True)
 
 
+_SCALARS = {}  # py_func -> CPU dispatcher of every scalar function
+_CUDA = {}  # py_func -> CUDA device function (built on first use)
+
+
 def scalar(fn):
-    """Compile a scalar (per-ray / per-voxel / per-path) function for the CPU target."""
-    return numba.njit(**_COMMON)(fn)
+    """Compile a scalar (per-ray / per-voxel / per-path) function for the CPU target.
+
+    The returned dispatcher is also registered for :func:`cuda_device`."""
+    disp = numba.njit(**_COMMON)(fn)
+    _SCALARS[fn] = disp
+    return disp
+
+
+def is_scalar(obj) -> bool:
+    """Whether ``obj`` is a dispatcher made by :func:`scalar`."""
+    return getattr(obj, "py_func", None) in _SCALARS
+
+
+def _rebind(fn):
+    """``fn`` with its global names of scalar functions bound to their CUDA device versions."""
+    import types
+
+    glob = dict(fn.__globals__)
+    for name in fn.__code__.co_names:
+        obj = glob.get(name)
+        if is_scalar(obj):
+            glob[name] = cuda_device(obj)
+    return types.FunctionType(fn.__code__, glob, fn.__name__, fn.__defaults__, fn.__closure__)
+
+
+def cuda_device(disp):
+    """The CUDA device function compiled from scalar dispatcher ``disp``'s Python source."""
+    fn = disp.py_func
+    dev = _CUDA.get(fn)
+    if dev is None:
+        from numba import cuda
+
+        dev = cuda.jit(device=True)(_rebind(fn))
+        _CUDA[fn] = dev
+    return dev
+
+
+def cuda_kernel(fn):
+    """Compile driver ``fn`` (plain Python using ``numba.cuda.grid``) as a CUDA kernel whose calls
+    of scalar functions go to their device versions."""
+    from numba import cuda
+
+    return cuda.jit(_rebind(fn))
 
 
 def driver(fn=None, *, parallel=True):

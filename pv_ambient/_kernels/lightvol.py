@@ -127,9 +127,88 @@ def _node(a, k, b, c, ib, ic):
     return float(x), float(y), float(z)
 
 
+@scalar
+def sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur):
+    """Node (ib, ic) of layer ``k`` of a sweep along axis ``a`` (:func:`sweep_tau`): writes its
+    optical depth to ``out`` (point light: only if ``a`` is the node's dominant axis) and its
+    path-mean extinction to ``cur`` (this layer's slot of the history ring); ``prev`` is the
+    layer ``J`` layers back."""
+    shape = sig.shape
+    b = 1 if a == 0 else 0
+    c = 2 if a != 2 else 1
+    nb = shape[b]
+    nc = shape[c]
+    x, y, z = _node(a, k, b, c, ib, ic)
+    if is_point:
+        vx = lx - x
+        vy = ly - y
+        vz = lz - z
+    else:
+        vx = lx
+        vy = ly
+        vz = lz
+    va = abs(vx if a == 0 else (vy if a == 1 else vz))
+    if J == 0 or (is_point and va <= J + TIE):
+        # nothing swept behind this node yet, or the light lies within reach:
+        # integrate straight to the light (t = 1) or to where the ray leaves the box
+        tau = march_tau(sig, B, x, y, z, vx, vy, vz, 1.0 if is_point else math.inf)
+    else:
+        f = J / va
+        vb = vy if b == 1 else vx
+        vc = vz if c == 2 else vy
+        pb = ib + vb * f
+        pc = ic + vc * f
+        # (TIE: a diagonal characteristic lands exactly on the boundary, up to rounding)
+        if pb < -TIE or pb > nb - 1 + TIE or pc < -TIE or pc > nc - 1 + TIE:
+            # the ray leaves the box before the layer J back: integrate to the exit
+            tau = march_tau(sig, B, x, y, z, vx, vy, vz, f)
+        else:
+            # interpolate the path-mean extinction q = τ/ℓ (ℓ: the path length inside
+            # the box toward the light), exact for a homogeneous medium
+            qx = x + f * vx
+            qy = y + f * vy
+            qz = z + f * vz
+            lp = path_length(shape, B, qx, qy, qz, vx, vy, vz, is_point, 1.0 - f)
+            tau = _bilerp_layer(prev, pb, pc) * lp + march_tau(sig, B, x, y, z, vx, vy, vz, f)
+    ln = path_length(shape, B, x, y, z, vx, vy, vz, is_point, 1.0)
+    cur[ib, ic] = tau / ln if ln > 0.0 else sig[int(x), int(y), int(z)]
+    write = True
+    if is_point:
+        ax = abs(lx - x)
+        ay = abs(ly - y)
+        az = abs(lz - z)
+        # ties (nodes on a diagonal through the light) go to the first axis; TIE keeps
+        # rounding of the light's position from choosing (scale invariance)
+        dom = 0
+        if ay > ax + TIE:
+            dom = 1
+        if az > max(ax, ay) + TIE:
+            dom = 2
+        write = dom == a
+    if write:
+        if a == 0:
+            out[k, ib, ic] = tau
+        elif a == 1:
+            out[ib, k, ic] = tau
+        else:
+            out[ib, ic, k] = tau
+
+
+@scalar
+def sweep_start(na, is_point, la, sign):
+    """First layer of a sweep of ``na`` layers in direction ``sign`` (point light at index ``la``
+    along the sweep axis: the first layer beyond it)."""
+    if is_point:
+        if sign > 0:
+            return max(int(math.floor(la)) + 1, 0)
+        return min(int(math.ceil(la)) - 1, na - 1)
+    return 0 if sign > 0 else na - 1
+
+
 @driver
 def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
-    """One sweep along axis ``a`` in direction ``sign`` (+1: increasing index) away from the light.
+    """One sweep along axis ``a`` in direction ``sign`` (+1: increasing index) away from the light
+    (CPU driver: layers in order, each layer's nodes in parallel by :func:`sweep_node`).
 
     For a point light at light-index (lx, ly, lz) the sweep covers the layers beyond the light
     and writes the nodes whose dominant axis (first axis of largest |x − light|, to within ``TIE``)
@@ -142,84 +221,21 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
     the last layers' path-mean extinction q = τ/ℓ (ℓ: path length inside the box toward the light);
     interpolating q rather than τ makes the scheme exact in a homogeneous medium.
     """
-    shape = sig.shape
-    na = shape[a]
-    b = 1 if a == 0 else 0
-    c = 2 if a != 2 else 1
-    nb = shape[b]
-    nc = shape[c]
+    na = sig.shape[a]
+    nb = hist.shape[1]
+    nc = hist.shape[2]
     nslot = hist.shape[0]
     la = lx if a == 0 else (ly if a == 1 else lz)
-    if is_point:
-        if sign > 0:
-            kstart = max(int(math.floor(la)) + 1, 0)
-        else:
-            kstart = min(int(math.ceil(la)) - 1, na - 1)
-    else:
-        kstart = 0 if sign > 0 else na - 1
-    k = kstart
+    k = sweep_start(na, is_point, la, sign)
     done_layers = 0
     while 0 <= k < na:
         slot = done_layers % nslot
         J = min(jump, done_layers)
-        pslot = (done_layers - J) % nslot
-        prev = hist[pslot]
+        prev = hist[(done_layers - J) % nslot]
+        cur = hist[slot]
         for ib in prange(nb):
             for ic in range(nc):
-                x, y, z = _node(a, k, b, c, ib, ic)
-                if is_point:
-                    vx = lx - x
-                    vy = ly - y
-                    vz = lz - z
-                else:
-                    vx = lx
-                    vy = ly
-                    vz = lz
-                va = abs(vx if a == 0 else (vy if a == 1 else vz))
-                if J == 0 or (is_point and va <= J + TIE):
-                    # nothing swept behind this node yet, or the light lies within reach:
-                    # integrate straight to the light (t = 1) or to where the ray leaves the box
-                    tau = march_tau(sig, B, x, y, z, vx, vy, vz, 1.0 if is_point else math.inf)
-                else:
-                    f = J / va
-                    vb = vy if b == 1 else vx
-                    vc = vz if c == 2 else vy
-                    pb = ib + vb * f
-                    pc = ic + vc * f
-                    # (TIE: a diagonal characteristic lands exactly on the boundary, up to rounding)
-                    if pb < -TIE or pb > nb - 1 + TIE or pc < -TIE or pc > nc - 1 + TIE:
-                        # the ray leaves the box before the layer J back: integrate to the exit
-                        tau = march_tau(sig, B, x, y, z, vx, vy, vz, f)
-                    else:
-                        # interpolate the path-mean extinction q = τ/ℓ (ℓ: the path length inside
-                        # the box toward the light), exact for a homogeneous medium
-                        qx = x + f * vx
-                        qy = y + f * vy
-                        qz = z + f * vz
-                        lp = path_length(shape, B, qx, qy, qz, vx, vy, vz, is_point, 1.0 - f)
-                        tau = _bilerp_layer(prev, pb, pc) * lp + march_tau(sig, B, x, y, z, vx, vy, vz, f)
-                ln = path_length(shape, B, x, y, z, vx, vy, vz, is_point, 1.0)
-                hist[slot, ib, ic] = tau / ln if ln > 0.0 else sig[int(x), int(y), int(z)]
-                write = True
-                if is_point:
-                    ax = abs(lx - x)
-                    ay = abs(ly - y)
-                    az = abs(lz - z)
-                    # ties (nodes on a diagonal through the light) go to the first axis; TIE keeps
-                    # rounding of the light's position from choosing (scale invariance)
-                    dom = 0
-                    if ay > ax + TIE:
-                        dom = 1
-                    if az > max(ax, ay) + TIE:
-                        dom = 2
-                    write = dom == a
-                if write:
-                    if a == 0:
-                        out[k, ib, ic] = tau
-                    elif a == 1:
-                        out[ib, k, ic] = tau
-                    else:
-                        out[ib, ic, k] = tau
+                sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur)
         done_layers += 1
         k += sign
 

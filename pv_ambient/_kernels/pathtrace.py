@@ -188,28 +188,36 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
     return lr, lg, lb, hit
 
 
+@scalar
+def pathtrace_pixel(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                    lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, j, i,
+                    sum_rad, sum_sq, sum_hit):
+    """Add samples ``[s0, s1)`` of pixel (i, j) to the sums, in order (the work of one thread of
+    either driver: bitwise the same for any thread count)."""
+    H, W = sum_hit.shape
+    pixel = j * W + i
+    for s in range(s0, s1):
+        r, gg, b, h = trace_path(cam, i, j, W, H, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj,
+                                 block, lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed,
+                                 pixel, s)
+        sum_rad[j, i, 0] += r
+        sum_rad[j, i, 1] += gg
+        sum_rad[j, i, 2] += b
+        sum_sq[j, i, 0] += r * r
+        sum_sq[j, i, 1] += gg * gg
+        sum_sq[j, i, 2] += b * b
+        sum_hit[j, i] += h
+
+
 @driver
 def pathtrace_image(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
                     lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, row0, row1,
                     sum_rad, sum_sq, sum_hit):
-    """Add samples ``[s0, s1)`` of every pixel in rows ``[row0, row1)`` to the float64 sums
-    ``sum_rad`` and ``sum_sq`` (H, W, 3: Σx, Σx²) and ``sum_hit`` (H, W).
-
-    Each pixel's samples are accumulated in order by one thread: bitwise the same for any
-    thread count.
-    """
-    H, W = sum_hit.shape
+    """CPU driver: add samples ``[s0, s1)`` of every pixel in rows ``[row0, row1)`` to the float64
+    sums ``sum_rad`` and ``sum_sq`` (H, W, 3: Σx, Σx²) and ``sum_hit`` (H, W)."""
+    W = sum_hit.shape[1]
     for j in prange(row0, row1):
         for i in range(W):
-            pixel = j * W + i
-            for s in range(s0, s1):
-                r, gg, b, h = trace_path(cam, i, j, W, H, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj,
-                                         block, lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed,
-                                         pixel, s)
-                sum_rad[j, i, 0] += r
-                sum_rad[j, i, 1] += gg
-                sum_rad[j, i, 2] += b
-                sum_sq[j, i, 0] += r * r
-                sum_sq[j, i, 1] += gg * gg
-                sum_sq[j, i, 2] += b * b
-                sum_hit[j, i] += h
+            pathtrace_pixel(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                            lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, j, i,
+                            sum_rad, sum_sq, sum_hit)

@@ -304,6 +304,28 @@ def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_
     return r, gg, b, T
 
 
+@scalar
+def raycast_pixel(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, j, i,
+                  mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                  lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
+                  radius, ball, amb,
+                  phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
+                  out_rad, out_alpha):
+    """Render pixel (i, j) into ``out_rad``/``out_alpha`` (the work of one thread of either
+    driver); ``t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
+    H, W = out_alpha.shape
+    per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
+    te = t_end[j, i] if per_pixel else t_end[0, 0]
+    r, gg, b, T = march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, te,
+                              mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                              lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
+                              radius, ball, amb, phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff)
+    out_rad[j, i, 0] = r + T * bg[0]
+    out_rad[j, i, 1] = gg + T * bg[1]
+    out_rad[j, i, 2] = b + T * bg[2]
+    out_alpha[j, i] = 1.0 - T
+
+
 @driver
 def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, row0, row1,
                   mode, field, table, lut_lo, lut_inv, aux, maj, block,
@@ -311,18 +333,12 @@ def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, r
                   radius, ball, amb,
                   phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
                   out_rad, out_alpha):
-    """Render rows [row0, row1) of the image with ray-cast ``model`` (:func:`march_pixel` per
-    pixel); ``t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
-    H, W = out_alpha.shape
-    per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
+    """CPU driver: rows [row0, row1) of the image, one :func:`raycast_pixel` per pixel."""
+    W = out_alpha.shape[1]
     for j in prange(row0, row1):
         for i in range(W):
-            te = t_end[j, i] if per_pixel else t_end[0, 0]
-            r, gg, b, T = march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, te,
-                                      mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                                      lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
-                                      radius, ball, amb, phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff)
-            out_rad[j, i, 0] = r + T * bg[0]
-            out_rad[j, i, 1] = gg + T * bg[1]
-            out_rad[j, i, 2] = b + T * bg[2]
-            out_alpha[j, i] = 1.0 - T
+            raycast_pixel(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, j, i,
+                          mode, field, table, lut_lo, lut_inv, aux, maj, block,
+                          lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
+                          radius, ball, amb, phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
+                          out_rad, out_alpha)

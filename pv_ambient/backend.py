@@ -1,0 +1,257 @@
+"""Compute backends: ``"cpu"`` (Numba ``prange`` drivers) and ``"cuda"`` (the same scalar kernels
+compiled for an NVIDIA GPU by numba-cuda, DESIGN §5b), chosen by ``backend="auto" | "cpu" | "cuda"``.
+
+``auto`` takes CUDA when the ``numba-cuda`` package is installed (``pip install
+"pv_ambient[cuda]"``) and a GPU is visible, and the CPU otherwise; the render's metadata says
+which ran (``metadata["backend"]``). Asking for ``"cuda"`` when it cannot run raises an error
+that says what is missing: the package (and the extra that installs it) or a device.
+
+The CUDA side keeps a :class:`DeviceCache` per :class:`~pv_ambient.Renderer`: the volume, its
+lookup tables, majorant, ball (σ̄) grid, preintegrated table and light volumes are uploaded once
+and stay on the GPU between renders, so a camera move is one kernel launch and one image
+download; a relight sweeps the new light's optical depth on the GPU (the rest stays resident).
+``NUMBA_ENABLE_CUDASIM=1`` (set before numba is first imported) runs the CUDA drivers in Numba's
+simulator — slow, pure Python, but the same code path: the test suite uses it on tiny scenes.
+
+This module imports without pyvista, vtk or numba-cuda.
+
+Examples
+--------
+>>> from pv_ambient.backend import resolve_backend
+>>> resolve_backend("cpu")
+'cpu'
+>>> resolve_backend("auto") in ("cpu", "cuda")
+True
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+import numpy as np
+
+from ._validation import check_choice
+
+BACKENDS = ("auto", "cpu", "cuda")
+
+
+class DeviceMemoryError(MemoryError):
+    """A scene does not fit in the GPU's free memory."""
+
+
+def simulator() -> bool:
+    """Whether Numba's CUDA simulator is on (``NUMBA_ENABLE_CUDASIM=1``)."""
+    return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"
+
+
+def cuda_problem():
+    """None when the CUDA backend can run here, else the exception that says why not."""
+    if simulator():
+        return None
+    try:
+        import numba_cuda  # noqa: F401  (the numba-cuda package: the [cuda] extra)
+    except ImportError:
+        return ImportError("backend='cuda' needs the numba-cuda package, which is not installed: "
+                           "pip install \"pv_ambient[cuda]\"")
+    try:
+        from numba import cuda
+
+        ok = bool(cuda.is_available())
+    except Exception:  # noqa: BLE001 - a broken driver reads as "no device"
+        ok = False
+    if not ok:
+        return RuntimeError("backend='cuda': numba-cuda is installed but no CUDA device is visible "
+                            "(numba.cuda.is_available() is False: check the NVIDIA driver and "
+                            "CUDA_VISIBLE_DEVICES)")
+    return None
+
+
+def resolve_backend(backend="auto") -> str:
+    """``"cpu"`` or ``"cuda"``: the backend ``backend`` stands for on this machine.
+
+    Raises the :func:`cuda_problem` error for ``"cuda"`` when CUDA cannot run.
+    """
+    check_choice(backend, "backend", BACKENDS)
+    if backend == "cpu":
+        return "cpu"
+    problem = cuda_problem()
+    if problem is None:
+        return "cuda"
+    if backend == "cuda":
+        raise problem
+    return "cpu"
+
+
+def free_device_memory() -> float:
+    """Free bytes on the current GPU (``inf`` in the simulator)."""
+    if simulator():
+        return float("inf")
+    from numba import cuda
+
+    free, _total = cuda.current_context().get_memory_info()
+    return float(free)
+
+
+class DeviceCache:
+    """Host arrays → device copies, kept between renders (keyed by the host array's identity;
+    the host array is held so its id cannot be reused). Entries unused for ``keep`` launches
+    are dropped."""
+
+    def __init__(self, keep=8):
+        self._items = {}
+        self._launch = 0
+        self.keep = keep
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held on the device."""
+        return int(sum(d.nbytes for _h, d, _t in self._items.values()))
+
+    def need(self, arrays) -> int:
+        """Bytes that uploading ``arrays`` would add."""
+        return int(sum(a.nbytes for a in arrays if isinstance(a, np.ndarray) and id(a) not in self._items))
+
+    def get(self, arr):
+        """The device copy of ``arr`` (uploaded on first use)."""
+        item = self._items.get(id(arr))
+        if item is None or item[0] is not arr:
+            from numba import cuda
+
+            item = (arr, cuda.to_device(np.ascontiguousarray(arr)), self._launch)
+        self._items[id(arr)] = (item[0], item[1], self._launch)
+        return item[1]
+
+    def put(self, arr, dev):
+        """Register ``dev`` as the device copy of host array ``arr`` (computed on the GPU)."""
+        self._items[id(arr)] = (arr, dev, self._launch)
+
+    def args(self, args):
+        """``args`` with every numpy array replaced by its device copy."""
+        return tuple(self.get(a) if isinstance(a, np.ndarray) else a for a in args)
+
+    def tick(self):
+        """End of a launch: drop entries unused for ``keep`` launches."""
+        self._launch += 1
+        old = [k for k, (_h, _d, t) in self._items.items() if self._launch - t > self.keep]
+        for k in old:
+            del self._items[k]
+
+    def clear(self):
+        self._items.clear()
+
+
+def check_fits(cache: DeviceCache, arrays, extra_bytes=0):
+    """Raise :class:`DeviceMemoryError` when uploading ``arrays`` plus ``extra_bytes`` of outputs
+    would not fit in the GPU's free memory."""
+    need = cache.need(arrays) + int(extra_bytes)
+    free = free_device_memory()
+    if need > free:
+        raise DeviceMemoryError(f"backend='cuda': the scene needs {need / 2**20:.1f} MiB more device memory "
+                                f"but only {free / 2**20:.1f} MiB are free; use backend='cpu' (or 'auto', which "
+                                "falls back to the CPU) or a smaller volume / light_resolution")
+
+
+def _quiet():
+    """The simulator runs the uint64 hash in numpy scalars, which warn on (intended) wrap-around."""
+    ctx = warnings.catch_warnings()
+    ctx.__enter__()
+    warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
+    return ctx
+
+
+def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
+    """Run the ray-cast kernel on rows [row0, row1) of ``rad``/``alpha`` (host arrays, filled in).
+
+    ``args`` are :func:`pv_ambient._kernels.raycast.raycast_image`'s arguments without the rows
+    and outputs, split at the row position: ``(head, tail)``."""
+    from numba import cuda
+
+    from ._kernels.cuda import BLOCK, grid_for, raycast_kernel
+
+    head, tail = args
+    h, w = alpha.shape
+    d_rad = cuda.device_array(rad.shape, rad.dtype)
+    d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
+    ctx = _quiet() if simulator() else None
+    try:
+        raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(head), row0, row1, *cache.args(tail),
+                                                       d_rad, d_alpha)
+        cuda.synchronize()
+    finally:
+        if ctx is not None:
+            ctx.__exit__(None, None, None)
+    rad[row0:row1] = d_rad.copy_to_host()[row0:row1]
+    alpha[row0:row1] = d_alpha.copy_to_host()[row0:row1]
+    cache.tick()
+
+
+class PathSums:
+    """Device-resident float64 sums of the path tracer (Σx, Σx², Σhit)."""
+
+    def __init__(self, h, w):
+        from numba import cuda
+
+        self.sum_rad = cuda.to_device(np.zeros((h, w, 3)))
+        self.sum_sq = cuda.to_device(np.zeros((h, w, 3)))
+        self.sum_hit = cuda.to_device(np.zeros((h, w)))
+
+    def download(self, sum_rad, sum_sq, sum_hit):
+        sum_rad[:] = self.sum_rad.copy_to_host()
+        sum_sq[:] = self.sum_sq.copy_to_host()
+        sum_hit[:] = self.sum_hit.copy_to_host()
+
+
+def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
+    """Add samples [s0, s1) of every pixel to the device sums (``args`` as ``pathtrace_image``'s
+    up to ``seed``)."""
+    from numba import cuda
+
+    from ._kernels.cuda import BLOCK, grid_for, pathtrace_kernel
+
+    h, w = sums.sum_hit.shape
+    ctx = _quiet() if simulator() else None
+    try:
+        pathtrace_kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, 0, h, sums.sum_rad, sums.sum_sq,
+                                                sums.sum_hit)
+        cuda.synchronize()
+    finally:
+        if ctx is not None:
+            ctx.__exit__(None, None, None)
+    cache.tick()
+
+
+def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out):
+    """The optical-depth sweeps of :func:`pv_ambient.propagation.optical_depth` on the GPU: one
+    kernel launch per layer (the layers depend on each other), nodes of a layer in parallel.
+    Fills the host array ``out`` and registers its device copy in ``cache``."""
+    from numba import cuda
+
+    from ._kernels.cuda import BLOCK, grid_for, sweep_layer_kernel
+    from ._kernels.lightvol import sweep_start
+
+    d_sig = cache.get(sig_l)
+    d_B = cache.get(B)
+    d_out = cuda.to_device(out)
+    shape = sig_l.shape
+    ctx = _quiet() if simulator() else None
+    try:
+        for a, s in sweeps:
+            nb, nc = [shape[i] for i in range(3) if i != a]
+            d_hist = cuda.to_device(np.zeros((jump + 1, nb, nc)))
+            la = (lx, ly, lz)[a]
+            k = sweep_start(shape[a], is_point, la, s)
+            done = 0
+            grid = grid_for(nc, nb)
+            while 0 <= k < shape[a]:
+                J = min(jump, done)
+                sweep_layer_kernel[grid, BLOCK](d_sig, d_B, is_point, lx, ly, lz, a, k, J,
+                                                d_hist[(done - J) % (jump + 1)], d_out, d_hist[done % (jump + 1)])
+                done += 1
+                k += s
+        cuda.synchronize()
+    finally:
+        if ctx is not None:
+            ctx.__exit__(None, None, None)
+    out[:] = d_out.copy_to_host()
+    cache.put(out, d_out)
