@@ -181,8 +181,8 @@ def main(argv=None):
                 print(f"{n}³/{w}² {model:20s} {b:4s} " + " ".join(f"{1e3 * m[k]:7.1f}ms" for k in
                                                              ("first", "camera", "relight", "tf"))
                       + f" {pps} {diff if b == 'gpu' else '':>12}")
-            ratio = " ".join(f"{c[k] / g[k]:8.1f}×" for k in ("first", "camera", "relight", "tf"))
-            pr = f"{g['paths_per_s'] / c['paths_per_s']:9.1f}×" if "paths_per_s" in g else ""
+            ratio = " ".join(f"{c[k] / g[k]:8.3g}×" for k in ("first", "camera", "relight", "tf"))
+            pr = f"{g['paths_per_s'] / c['paths_per_s']:9.3g}×" if "paths_per_s" in g else ""
             print(f"{'':10s} {'':20s} {'cpu/gpu':4s} {ratio} {pr}")
     return 0
 

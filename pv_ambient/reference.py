@@ -54,7 +54,8 @@ def relative_error(radiance, std_error, alpha):
 
 def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_per_pixel=64, target_error=None,
                max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False, batch=16,
-               light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend="cpu") -> RenderResult:
+               light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend="cpu",
+               time_limit=None) -> RenderResult:
     """Render the unbiased path-traced reference of a :class:`~pv_ambient.Renderer`'s scene.
 
     Parameters
@@ -94,6 +95,10 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         Samples per majorant block (smaller: tighter majorants, more block crossings).
     rr_depth : int, default: 3
         Collisions before Russian roulette starts.
+    time_limit : float, optional
+        Stop adding samples (``samples_per_pixel`` stays the cap) once the next batch would end
+        after this many seconds from the start; at least one sample is always taken. The first
+        batch is a single sample, which times one pass.
     backend : {"auto", "cpu", "cuda"}, default: "cpu"
         Where the paths are traced (:mod:`pv_ambient.backend`): the same per-path kernel and
         counter-based random numbers on both, so a seed gives the same image up to rounding.
@@ -129,6 +134,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
     bg = check_rgb(background, "background")
     block = check_int(majorant_block, "majorant_block", lo=1)
     rr_depth = check_int(rr_depth, "rr_depth", lo=0)
+    limit = None if time_limit is None else check_real(time_limit, "time_limit", lo=0.0)
     if light_clamp is None:
         light_clamp = 0.25 * renderer.default_step("balanced")
     light_clamp = check_real(light_clamp, "light_clamp", lo=0.0)
@@ -168,6 +174,15 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         try:
             while n < spp:
                 s1 = min(n + batch, spp)
+                if limit is not None:
+                    if n == 0:
+                        s1 = 1  # time one pass
+                    else:
+                        elapsed = time.perf_counter() - t_start
+                        fit = int((limit - elapsed) / (elapsed / n))
+                        if fit < 1:
+                            break
+                        s1 = min(s1, n + fit)
                 if sums is None:
                     pathtrace_image(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
                 else:
@@ -195,7 +210,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
             "max_depth": max_depth, "target_error": target, "relative_error": rel, "window_size": size,
             "phase": repr(ph), "lights": len(renderer.lights), "background": bg.tolist(),
             "light_clamp": light_clamp, "majorant_block": block, "rr_depth": rr_depth, "batch": batch,
-            "backend": backend, "device_memory": renderer._device.nbytes if backend == "cuda" else 0}
+            "time_limit": limit, "backend": backend, "device_memory": renderer._device.nbytes if backend == "cuda" else 0}
     return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
                         metadata=meta, std_error=se.astype(np.float32))
 

@@ -46,12 +46,14 @@ QUALITY_PRESETS = {
 }
 #: Options that belong to particular models (accepted by every render call, used where they apply).
 MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
-                 "target_error"}
+                 "target_error", "time_budget"}
 #: Every option a scene file may carry at top level besides the common ones.
 SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
 #: Light propagation modes of ambient scattering (DESIGN §4.3) and the default.
 PROPAGATION_MODES = ("beer_lambert", "tube")
 DEFAULT_PROPAGATION = "beer_lambert"
+#: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
+BUDGET_MAX_SPP = 4096
 #: Default ambient radius per model, in units of the largest grid spacing. For ambient scattering,
 #: 8 voxels with Beer–Lambert fronts measured closest to the path-traced reference on all three
 #: scenes of ``benchmarks/trade.py`` (radii 2, 4, 8 × both modes; README, "The trade").
@@ -362,7 +364,14 @@ class Renderer:
                slice: D does not depend on θ), or with ``quality="accurate"`` the flux-limited
                ``diffusion`` model, the lowest-error noise-free model on all three scenes of the
                trade benchmark (block error 0.22 / 0.18 / 0.06 against ambient scattering's
-               0.49 / 0.75 / 0.13) at a first frame 3–25× costlier (README, "The trade").
+               0.49 / 0.75 / 0.13) at a first frame 3–25× costlier (README, "The trade");
+            5. with ``time_budget=SECONDS`` (a still image): ``path_traced`` with as many samples
+               per pixel as fit in the budget (``samples_per_pixel`` is then the cap, default
+               4096), denoised when ``pyoidn`` is installed — on every row of the trade
+               benchmark the path tracer reaches each noise-free model's error in less time
+               than that model's first frame (README, "The trade", column "PT same err"). The
+               denoiser's time (one emission–absorption frame for its guide, then OIDN) comes
+               on top of the budget.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
             the smallest grid spacing; light grid 1×, DESIGN §4.3's default, ≥ 2× the data
@@ -431,6 +440,7 @@ class Renderer:
         if light_resolution is None and preset["light_resolution"] is not None:
             light_resolution = max(preset["light_resolution"],
                                    default_factor(self.optics, self.geometry) if quality == "accurate" else 0.0)
+        explicit = set(model_options)
         model_options.setdefault("samples_per_pixel", preset["samples_per_pixel"])
         unknown = set(model_options) - MODEL_OPTIONS
         if unknown:
@@ -448,6 +458,20 @@ class Renderer:
         t_end = _ray_end(ray_end, size)
         asked = self.backend if backend is None else backend
         backend = resolve_backend(asked)
+        budget = model_options.pop("time_budget", None)
+        if budget is not None:
+            budget = check_real(budget, "time_budget", lo=0.0, lo_open=True)
+            if model != "auto":
+                raise ValueError(f"time_budget chooses the model: use it with model='auto', not {model!r}")
+            grid0 = self.light_grid(light_resolution)
+            if self.resolve_model("auto", grid0, quality) != "single_scattering":
+                from .denoise import available
+
+                model = "path_traced"
+                model_options["time_limit"] = budget
+                model_options.setdefault("denoise", available())
+                if "samples_per_pixel" not in explicit:
+                    model_options["samples_per_pixel"] = BUDGET_MAX_SPP
         if model == "path_traced":
             if ray_end is not None:
                 raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
@@ -535,7 +559,11 @@ class Renderer:
                 denoise_radiance(None)  # raises the ImportError that names the extra
         res = path_trace(self, cam, size, phase=ph, samples_per_pixel=options.get("samples_per_pixel", 64),
                          target_error=options.get("target_error"), max_depth=options.get("max_depth"), seed=seed,
-                         background=bg, progress_bar=progress_bar, light_clamp=0.25 * step, backend=backend)
+                         background=bg, progress_bar=progress_bar, light_clamp=0.25 * step, backend=backend,
+                         time_limit=options.get("time_limit"))
+        if "time_limit" in options:
+            res.metadata["requested_model"] = "auto"
+            res.metadata["time_budget"] = options["time_limit"]
         res.metadata.setdefault("time_prepare", 0.0)
         res.metadata.setdefault("time_render", res.metadata.get("time", 0.0))
         res.metadata["denoised"] = bool(denoise)

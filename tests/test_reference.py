@@ -585,3 +585,27 @@ def test_depth_one_reference_equals_single_scattering_model():
     assert ok.mean() >= 0.97
     se_mean = np.sqrt((se ** 2).sum()) / se.size
     assert abs(ref.radiance.mean() - ss_quarter.mean()) <= 3 * se_mean + bias.mean()
+
+
+def test_time_budget_spends_the_budget_on_the_path_tracer():
+    # auto + time_budget: path_traced with as many samples as fit; more budget, more samples
+    import time
+
+    from pv_ambient import datasets
+
+    r = pa.Renderer(datasets.cloud(n=16), lights=[pa.PointLight((0.3, 0.2, 0.1), 2.0)])
+    r.render(window_size=(16, 16), model="path_traced", samples_per_pixel=1)  # compile outside the clock
+    spp = {}
+    for budget in (0.05, 1.0):
+        t = time.perf_counter()
+        res = r.render(window_size=(16, 16), model="auto", time_budget=budget, denoise=False)
+        wall = time.perf_counter() - t
+        assert res.metadata["model"] == "path_traced" and res.metadata["requested_model"] == "auto"
+        assert res.metadata["time"] <= budget + 0.5 and wall <= budget + 2.0
+        spp[budget] = res.metadata["spp"]
+    assert spp[0.05] >= 1 and spp[1.0] >= 4 * spp[0.05]
+    with pytest.raises(ValueError, match="time_budget chooses the model"):
+        r.render(window_size=(8, 8), model="ambient_scattering", time_budget=1.0)
+    # nothing to scatter: the budget does not buy a path tracer
+    dark = pa.Renderer(datasets.cloud(n=16))
+    assert dark.render(window_size=(8, 8), model="auto", time_budget=1.0).metadata["model"] == "single_scattering"
