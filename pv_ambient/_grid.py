@@ -295,9 +295,9 @@ def volume_from_image(grid, *, preference="point", name="grid") -> Volume:
     if info is not None and info.name is not None:
         active_name = info.name
         active_assoc = "point" if "POINT" in str(info.association).upper() else "cell"
-    use_cell = (preference == "cell" and cell) or (not point and cell)
-    if active_assoc is not None and not (preference == "cell" and active_name in cell):
-        use_cell = active_assoc == "cell"
+    # cell data when asked for (preference="cell"), when there is nothing else, or when the active
+    # scalars are cell data (PyVista's default choice)
+    use_cell = bool(cell) and (preference == "cell" or not point or active_assoc == "cell")
     assoc = "cell" if use_cell else "point"
     source = cell if use_cell else point
     if not source:

@@ -311,17 +311,29 @@ class Renderer:
 
         g = float(phase.mean_cosine)
         total = None
+        keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited)) for lt in lights)
+        if len(keys) > 1 and ("diffusion_sum", keys) in self._cache:
+            return self._cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
         for lt in lights:
             key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
             if key not in self._cache:
                 t = time.perf_counter()
                 sol = solve_for_light(self, lt, g, light_resolution=grid.factor, flux_limited=bool(flux_limited),
                                       progress_bar=progress_bar)
-                self._cache[key] = sol.packed()
+                packed = sol.packed()
+                if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
+                                                                                       packed[..., 8:12]):
+                    packed = np.ascontiguousarray(packed[..., 0:4])  # grey: one channel read per sample
+                self._cache[key] = packed
                 self.timings[f"diffusion {lt}"] = time.perf_counter() - t
                 self._diffusion_info = {"iterations": int(sol.iterations), "residual": float(sol.residual),
                                         "converged": bool(sol.converged)}
-            total = self._cache[key] if total is None else total + self._cache[key]
+            part = self._cache[key]
+            if total is not None and total.shape != part.shape:  # grey and coloured lights: all 12
+                total, part = (np.tile(a, (1, 1, 1, 3)) if a.shape[3] == 4 else a for a in (total, part))
+            total = part if total is None else total + part
+        if len(keys) > 1:
+            self._cache[("diffusion_sum", keys)] = total
         return total if total is not None else _DUMMY12
 
     def resolve_model(self, model, grid=None, quality="balanced"):
@@ -611,7 +623,7 @@ class Renderer:
     def _run_tiles(self, head, tail, rad, alpha, progress_bar, name):
         from ._kernels.raycast import raycast_image
 
-        tiles = _tiles(rad.shape[0], 16 if progress_bar else 1)
+        tiles = _tiles(rad.shape[0], 16 if progress_bar else 4)  # Ctrl-C is seen between tiles
         bar = None
         if progress_bar:
             from tqdm.auto import tqdm

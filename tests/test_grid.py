@@ -118,3 +118,18 @@ def test_volume_from_numpy():
         Volume(np.zeros((2, 3, 4)), spacing=(1, 0, 3))
     with pytest.raises(ValueError, match="empty"):
         Volume(np.zeros((0, 3, 4)))
+
+
+def test_preference_cell_wins_over_active_point_scalars():
+    # explicit preference="cell" reads the cell arrays even when the active scalars are point data
+    import pyvista as pv
+
+    import pv_ambient as pa
+
+    g = pv.ImageData(dimensions=(5, 5, 5))
+    g.point_data["p"] = np.zeros(g.n_points, np.float32)
+    g.cell_data["c"] = np.arange(g.n_cells, dtype=np.float32)
+    g.set_active_scalars("p", preference="point")
+    r = pa.Renderer(g, scalars="c", preference="cell")
+    assert r.volume.association == "cell" and r.volume.geometry.shape == (4, 4, 4)
+    assert pa.Renderer(g).volume.association == "point"
