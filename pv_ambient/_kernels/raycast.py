@@ -192,12 +192,14 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, 
 def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
     light from the diffusion solve (DESIGN §4b), ω_o = −d toward the camera. ``diff`` is
-    (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components."""
+    (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components; or
+    (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights)."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(diff, x, y, z)
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
-    for c in range(3):
+    nch = diff.shape[3] // 4
+    for c in range(nch):
         q = 4 * c
         v = (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
              - 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
@@ -206,6 +208,8 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
         v = max(v, 0.0) * INV_4PI_RC
         if c == 0:
             out0 = v
+            out1 = v
+            out2 = v
         elif c == 1:
             out1 = v
         else:
