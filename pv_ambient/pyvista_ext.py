@@ -1,5 +1,6 @@
-"""PyVista integration: the ``grid.ambient`` accessor, textured planes in plotters, and the
-side-by-side comparison with VTK's own volume rendering.
+"""PyVista integration: the ``grid.ambient`` accessor, textured planes in plotters, labelled
+panels of renders saved side by side, and the side-by-side comparison with VTK's own volume
+rendering.
 
 This is the only module that imports ``pyvista.plotting``. It is the target of the
 ``pyvista.accessors`` entry point, so ``grid.ambient`` works without importing pv_ambient.
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
 import pyvista as pv
@@ -101,6 +103,77 @@ def add_result_plane(plotter, result, *, name=None, **display):
     result.camera.to_vtk(plotter.camera)
     plotter.renderer.ResetCameraClippingRange()
     return actor
+
+
+def show_panels(results, labels, path, *, display=None, font_size=12, off_screen=True):
+    """Save renders side by side in one row, each labelled in its top-left corner.
+
+    Each result becomes a textured plane (:func:`add_result_plane`) in its own subplot, exactly
+    its ``window_size`` in pixels; the picture is saved with ``Plotter.show(screenshot=path)``.
+
+    Parameters
+    ----------
+    results : sequence of RenderResult
+        One panel each, left to right. All must have the same height; widths may differ.
+    labels : sequence of str
+        One label per result, drawn in white at the top left of its panel.
+    path : str or path-like
+        Where the screenshot (PNG) is written.
+    display : dict or sequence of dict, optional
+        Display conversion (``exposure``, ``tonemap``, ``srgb``, as :meth:`RenderResult.to_uint8`):
+        one dict for every panel, or one per panel. None: VTK's convention (no exposure, clipped).
+    font_size : int, default: 12
+        Label font size; labels sit ``2 * font_size`` pixels below the top of their panel.
+    off_screen : bool, optional, default: True
+        Passed to ``pyvista.Plotter`` (PyVista's global setting when None).
+
+    Returns
+    -------
+    (int, int)
+        ``(width, height)`` of the saved picture, in pixels.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> import pyvista as pv
+    >>> from pv_ambient.pyvista_ext import show_panels
+    >>> grid = pv.ImageData(dimensions=(8, 8, 8))
+    >>> grid["density"] = np.linspace(0, 1, grid.n_points)
+    >>> res = grid.ambient.render(window_size=(32, 24))
+    >>> path = os.path.join(tempfile.mkdtemp(), "panels.png")
+    >>> show_panels([res, res], ["clip", "+1 stop"], path, display=[{}, {"exposure": 1.0}], font_size=6)
+    (64, 24)
+    >>> os.path.isfile(path)
+    True
+    """
+    results = list(results)
+    labels = [str(label) for label in labels]
+    if not results:
+        raise ValueError("show_panels needs at least one result")
+    if len(labels) != len(results):
+        raise ValueError(f"{len(labels)} labels for {len(results)} results")
+    if display is None or isinstance(display, Mapping):
+        displays = [display or {}] * len(results)
+    else:
+        displays = [d or {} for d in display]
+        if len(displays) != len(results):
+            raise ValueError(f"{len(displays)} display dicts for {len(results)} results")
+    font_size = check_int(font_size, "font_size", lo=1)
+    sizes = [res.window_size for res in results]
+    height = sizes[0][1]
+    if any(h != height for _, h in sizes):
+        raise ValueError(f"the panels of one row need one height, got window sizes {sizes}")
+    widths = [w for w, _ in sizes]
+    pl = pv.Plotter(shape=(1, len(results)), window_size=(sum(widths), height), border=False,
+                    col_weights=widths, off_screen=off_screen)
+    for k, (res, label, disp) in enumerate(zip(results, labels, displays)):
+        pl.subplot(0, k)
+        add_result_plane(pl, res, **disp)
+        pl.add_text(label, position=(4, height - 2 * font_size), font_size=font_size, color="white")
+    size = tuple(int(v) for v in pl.window_size)
+    pl.show(screenshot=str(path))
+    return size
 
 
 #: Keywords of :meth:`RenderResult.to_uint8` that ``display=`` may hold.

@@ -112,14 +112,7 @@ for model in ("emission_absorption", "ambient_scattering"):
 scattered = results["ambient_scattering"]
 white = float(np.percentile(scattered.radiance[scattered.alpha > 0.1].max(axis=-1), 99))
 displays = ({}, {"exposure": float(np.log2(0.7 / white)), "tonemap": "aces", "srgb": True})
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, 2), window_size=(2 * SIZE[0], SIZE[1]), border=False)
-for k, (label, res, display) in enumerate(zip(("emission-absorption", "ambient scattering"),
-                                               results.values(), displays)):
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, **display)
-    pl.add_text(label, position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
 path = os.path.join(OUT, "mri_mni152.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels(results.values(), ("emission-absorption", "ambient scattering"), path,
+                                  display=displays, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

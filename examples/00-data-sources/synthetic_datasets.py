@@ -42,19 +42,16 @@ for name, grid in grids.items():
 # whole cube). The emission–absorption model needs no light: each sample emits its
 # transfer-function colour in proportion to its extinction.
 camera = pa.Camera(position=(2.5, -3.2, 1.7), focal_point=(0.0, 0.0, 0.0), view_up=(0.0, 0.0, 1.0))
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, len(grids)), window_size=(len(grids) * SIZE[0], SIZE[1]), border=False)
-for k, (name, grid) in enumerate(grids.items()):
+results = []
+for name, grid in grids.items():
     tf = pa.TransferFunction(**datasets.suggested_style(name))
     t = time.perf_counter()
     res = pa.render(grid, transfer_function=tf, camera=camera, window_size=SIZE)
     elapsed = time.perf_counter() - t
     covered = float(np.mean(res.alpha > 0.5))
     print(f"{name:15s} EA {elapsed:5.2f} s, {100 * covered:4.1f} % of pixels more than half opaque")
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res)  # VTK's display convention: no exposure, clipped
-    pl.add_text(name, position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
+    results.append(res)
+# one labelled panel per volume, in VTK's display convention (no exposure, clipped)
 path = os.path.join(OUT, "synthetic_datasets.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels(results, list(grids), path, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

@@ -34,15 +34,12 @@ cam = pa.Camera((0.0, -3.6, 0.3), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=3
 # One renderer, three phase functions: the light volume is computed once; each g needs its own
 # preintegrated table slice (shipped for g = 0 and 0.6, computed once and cached on disk for
 # g = −0.5). One exposure for all three panels, so brightness compares across them.
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, 3), window_size=(3 * SIZE[0], SIZE[1]), border=False)
-for k, g in enumerate((-0.5, 0.0, 0.6)):
+results = {}
+for g in (-0.5, 0.0, 0.6):
     res = r.render(camera=cam, window_size=SIZE, model="ambient_scattering", phase=g)
     print(f"g = {g:+.1f}: mean radiance {res.radiance.mean():.4f}")
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, exposure=3.5, tonemap="reinhard", srgb=True)
-    pl.add_text(f"g = {g:+.1f}", position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
+    results[f"g = {g:+.1f}"] = res
 path = os.path.join(OUT, "cloud_phase_sweep.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels(results.values(), list(results), path, font_size=6 if FAST else 12,
+                                  display={"exposure": 3.5, "tonemap": "reinhard", "srgb": True})
 print(f"saved {path} ({w}x{h})")

@@ -58,13 +58,7 @@ print(f"ambient / single scattering, mean over the cloud: {ratio:.2f}")
 missing = pa.RenderResult(np.maximum(amb.radiance - ss.radiance, 0.0), amb.alpha, amb.camera)
 white = float(np.percentile(amb.radiance[inside].max(axis=-1), 99))
 display = {"exposure": float(np.log2(0.5 / white)), "tonemap": "aces", "srgb": True}
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, 3), window_size=(3 * SIZE[0], SIZE[1]), border=False)
-for k, (label, res) in enumerate((("single", ss), ("ambient", amb), ("ambient - single", missing))):
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, **display)
-    pl.add_text(label, position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
 path = os.path.join(OUT, "directional_single_vs_ambient.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels((ss, amb, missing), ("single", "ambient", "ambient - single"), path,
+                                  display=display, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

@@ -47,14 +47,8 @@ for m, res in results.items():
 # %%
 # Side by side, each with its own exposure (the models compute different quantities; the lit
 # shell of AS is ~8× dimmer than the emission of EA, and the core around the light saturates).
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, 3), window_size=(3 * SIZE[0], SIZE[1]), border=False)
-for k, (m, exposure) in enumerate(zip(results, (0.0, -2.5, 3.0))):
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, results[m], exposure=exposure, tonemap="reinhard", srgb=True)
-    pl.add_text({"emission_absorption": "EA", "ambient_occlusion": "AO",
-                 "ambient_scattering": "AS"}[m], position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
 path = os.path.join(OUT, "figure1_supernova.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels(results.values(), ("EA", "AO", "AS"), path, font_size=6 if FAST else 12,
+                                  display=[{"exposure": exposure, "tonemap": "reinhard", "srgb": True}
+                                           for exposure in (0.0, -2.5, 3.0)])
 print(f"saved {path} ({w}x{h})")

@@ -67,13 +67,7 @@ print(f"superposition: max |both - (warm + cool)| = {gap:.1e} of the brightest p
 # brightness and colour compare across them.
 white = float(np.percentile(both[results["warm + cool"].alpha > 0.1].max(axis=-1), 99))
 display = {"exposure": float(np.log2(1.0 / white)), "tonemap": "aces", "srgb": True}
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, 3), window_size=(3 * SIZE[0], SIZE[1]), border=False)
-for k, (label, res) in enumerate(results.items()):
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, **display)
-    pl.add_text(label, position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
 path = os.path.join(OUT, "ct_two_coloured_lights.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels(results.values(), list(results), path, display=display,
+                                  font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

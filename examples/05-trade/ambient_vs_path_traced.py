@@ -75,16 +75,9 @@ print(f"ambient scattering bias of the mean: {100 * bias:+.1f} % "
 # the path tracer.
 white = float(np.percentile(ambient.radiance[ambient.alpha > 0.1].max(axis=-1), 99))
 display = {"exposure": float(np.log2(0.5 / white)), "tonemap": "aces", "srgb": True}
-panels = [("ambient", ambient)] + [(f"PT {spp} spp", res) for spp, res in traced.items()]
-font = 6 if FAST else 12
-pl = pv.Plotter(shape=(1, len(panels)), window_size=(len(panels) * SIZE[0], SIZE[1]), border=False)
-for k, (label, res) in enumerate(panels):
-    pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, **display)
-    pl.add_text(label, position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
 path = os.path.join(OUT, "ambient_vs_path_traced.png")
-w, h = pl.window_size
-pl.show(screenshot=path)
+w, h = pa.pyvista_ext.show_panels([ambient, *traced.values()], ["ambient"] + [f"PT {spp} spp" for spp in traced],
+                                  path, display=display, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")
 
 # %%
