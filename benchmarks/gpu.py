@@ -133,11 +133,12 @@ def compile_only(cc):
     r.render(camera=cameras()[0], window_size=(8, 8), model="ambient_scattering", quality="preview")
     r.render(camera=cameras()[0], window_size=(8, 8), model="path_traced", samples_per_pixel=1)
     sig_l, B, is_point, lx, ly, lz, ax, sign, jump, out, hist = captured["sweep"]
-    sigs = {"raycast": (kc._raycast, tuple(numba.typeof(v) for v in captured["raycast"])),
-            "pathtrace": (kc._pathtrace, tuple(numba.typeof(v) for v in captured["pathtrace"])),
-            "sweep_layer": (kc._sweep_layer, tuple(numba.typeof(v) for v in
-                                                   (sig_l, B, is_point, lx, ly, lz, ax, ax, ax, hist[0], out,
-                                                    hist[0])))}
+    rc, pt = captured["raycast"], captured["pathtrace"]
+    # kernel argument order: the scalar's arguments without the thread indices, then row0, row1
+    kargs = {"raycast": rc[:11] + rc[13:] + rc[11:13], "pathtrace": pt[:-5] + pt[-3:] + pt[-5:-3],
+             "sweep_layer": (sig_l, B, is_point, lx, ly, lz, ax, ax, ax, hist[0], out, hist[0], 0, 1)}
+    sigs = {name: (kc.grid_function(*kc.KERNELS[name]), tuple(numba.typeof(v) for v in kargs[name]))
+            for name in kargs}
     print(f"compiling the CUDA kernels to PTX for compute capability {cc[0]}.{cc[1]} (no GPU used)")
     for name, (fn, sig) in sigs.items():
         t = time.perf_counter()

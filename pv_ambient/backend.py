@@ -175,8 +175,8 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
     ctx = _quiet() if simulator() else None
     try:
-        raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(head), row0, row1, *cache.args(tail),
-                                                       d_rad, d_alpha)
+        raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(head), *cache.args(tail), d_rad, d_alpha,
+                                                       row0, row1)
         cuda.synchronize()
     finally:
         if ctx is not None:
@@ -212,8 +212,8 @@ def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
     h, w = sums.sum_hit.shape
     ctx = _quiet() if simulator() else None
     try:
-        pathtrace_kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, 0, h, sums.sum_rad, sums.sum_sq,
-                                                sums.sum_hit)
+        pathtrace_kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, sums.sum_rad, sums.sum_sq,
+                                                sums.sum_hit, 0, h)
         cuda.synchronize()
     finally:
         if ctx is not None:
@@ -246,7 +246,8 @@ def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out)
             while 0 <= k < shape[a]:
                 J = min(jump, done)
                 sweep_layer_kernel[grid, BLOCK](d_sig, d_B, is_point, lx, ly, lz, a, k, J,
-                                                d_hist[(done - J) % (jump + 1)], d_out, d_hist[done % (jump + 1)])
+                                                d_hist[(done - J) % (jump + 1)], d_out, d_hist[done % (jump + 1)],
+                                                0, nb)
                 done += 1
                 k += s
         cuda.synchronize()
