@@ -31,16 +31,7 @@ import pyvista as pv  # noqa: E402
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
 from pv_ambient.pyvista_ext import add_vtk_volume  # noqa: E402
-
-
-def median_time(fn, repeats):
-    fn(0)  # warm-up
-    times = []
-    for k in range(1, repeats + 1):
-        t = time.perf_counter()
-        fn(k)
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
+from _timing import median_time  # noqa: E402
 
 
 def main(argv=None):

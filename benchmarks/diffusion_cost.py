@@ -15,9 +15,7 @@ Usage: ``python benchmarks/diffusion_cost.py [--n 128] [--window 512] [--repeats
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -27,16 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import datasets_synthetic as ds  # noqa: E402
 import pv_ambient as pa  # noqa: E402
 from pv_ambient._grid import Volume  # noqa: E402
-
-
-def med(fn, repeats):
-    fn(0)
-    out = []
-    for k in range(1, repeats + 1):
-        t = time.perf_counter()
-        fn(k)
-        out.append(time.perf_counter() - t)
-    return statistics.median(out)
+from pv_ambient.phase import as_phase  # noqa: E402
+from _timing import median_time  # noqa: E402
 
 
 def main(argv=None):
@@ -64,15 +54,12 @@ def main(argv=None):
             r.optical_depth(pa.PointLight((0.01 * (k + 1), 0, 0), 3.0), grid)
 
         def solve(k):
-            r.diffusion([pa.PointLight((0.01 * (k + 1), 0, 0), 3.0)], grid, r_phase, flux_limited=flux)
-        from pv_ambient.phase import as_phase
-
-        r_phase = as_phase(None)
-        t_lv = med(light_volume, args.repeats)
-        t_solve = med(solve, args.repeats)
-        t_ss = med(lambda k: r.render(camera=cams[k % 6], window_size=size, model="single_scattering"),
+            r.diffusion([pa.PointLight((0.01 * (k + 1), 0, 0), 3.0)], grid, as_phase(None), flux_limited=flux)
+        t_lv = median_time(light_volume, args.repeats)
+        t_solve = median_time(solve, args.repeats)
+        t_ss = median_time(lambda k: r.render(camera=cams[k % 6], window_size=size, model="single_scattering"),
                    args.repeats)
-        t_df = med(lambda k: r.render(camera=cams[k % 6], window_size=size, model="diffusion", flux_limited=flux),
+        t_df = median_time(lambda k: r.render(camera=cams[k % 6], window_size=size, model="diffusion", flux_limited=flux),
                    args.repeats)
         rows.append((("flux-limited" if flux else "plain"), t_lv, t_solve, t_ss, t_df))
     print(f"supernova {args.n}³, {args.window}², one point light, balanced; medians of {args.repeats}")

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -42,6 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a ch
 import datasets_synthetic as ds  # noqa: E402
 import pv_ambient as pa  # noqa: E402
 from pv_ambient._grid import Volume  # noqa: E402
+from _timing import median_time  # noqa: E402
 
 MODELS = ("emission_absorption", "single_scattering", "ambient_scattering", "diffusion", "path_traced")
 
@@ -63,16 +63,6 @@ def cameras():
             for a in np.linspace(0.3, 1.8, 8)]
 
 
-def median(fn, repeats):
-    fn(0)
-    times = []
-    for k in range(1, repeats + 1):
-        t = time.perf_counter()
-        fn(k)
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
-
-
 def measure(vol, size, model, backend, repeats, spp):
     cams = cameras()
     light = pa.PointLight((0.0, 0.0, 0.0), 3.0)
@@ -86,18 +76,18 @@ def measure(vol, size, model, backend, repeats, spp):
     def first(k):
         rr = pa.Renderer(vol, transfer_function=make_tf(), lights=[light], backend=backend)
         out["image"] = rr.render(camera=cams[0], **opts).radiance
-    out["first"] = median(first, repeats)
-    out["camera"] = median(lambda k: r.render(camera=cams[k % len(cams)], **opts), repeats)
+    out["first"] = median_time(first, repeats)
+    out["camera"] = median_time(lambda k: r.render(camera=cams[k % len(cams)], **opts), repeats)
 
     def relight(k):
         r.set_lights([pa.PointLight((0.05 * (k + 1), 0.0, 0.0), 3.0)])
         r.render(camera=cams[0], **opts)
-    out["relight"] = median(relight, repeats)
+    out["relight"] = median_time(relight, repeats)
 
     def tf_change(k):
         rr = pa.Renderer(vol, transfer_function=make_tf(1.0 + 0.1 * (k + 1)), lights=[light], backend=backend)
         rr.render(camera=cams[0], **opts)
-    out["tf"] = median(tf_change, repeats)
+    out["tf"] = median_time(tf_change, repeats)
     if model == "path_traced":
         out["paths_per_s"] = size[0] * size[1] * spp / out["camera"]
     return out

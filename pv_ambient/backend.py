@@ -26,6 +26,7 @@ True
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 
@@ -152,12 +153,17 @@ def check_fits(cache: DeviceCache, arrays, extra_bytes=0):
                                 "falls back to the CPU) or a smaller volume / light_resolution")
 
 
-def _quiet():
-    """The simulator runs the uint64 hash in numpy scalars, which warn on (intended) wrap-around."""
-    ctx = warnings.catch_warnings()
-    ctx.__enter__()
-    warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
-    return ctx
+@contextlib.contextmanager
+def _launch():
+    """Around kernel launches: wait for the GPU at the end; in the simulator, which runs the uint64
+    hash in numpy scalars, silence their (intended) wrap-around warnings."""
+    from numba import cuda
+
+    with warnings.catch_warnings():
+        if simulator():
+            warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
+        yield
+        cuda.synchronize()
 
 
 def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
@@ -173,14 +179,9 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     h, w = alpha.shape
     d_rad = cuda.device_array(rad.shape, rad.dtype)
     d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
-    ctx = _quiet() if simulator() else None
-    try:
+    with _launch():
         raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(head), *cache.args(tail), d_rad, d_alpha,
                                                        row0, row1)
-        cuda.synchronize()
-    finally:
-        if ctx is not None:
-            ctx.__exit__(None, None, None)
     rad[row0:row1] = d_rad.copy_to_host()[row0:row1]
     alpha[row0:row1] = d_alpha.copy_to_host()[row0:row1]
     cache.tick()
@@ -205,19 +206,12 @@ class PathSums:
 def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
     """Add samples [s0, s1) of every pixel to the device sums (``args`` as ``pathtrace_image``'s
     up to ``seed``)."""
-    from numba import cuda
-
     from ._kernels.cuda import BLOCK, grid_for, pathtrace_kernel
 
     h, w = sums.sum_hit.shape
-    ctx = _quiet() if simulator() else None
-    try:
+    with _launch():
         pathtrace_kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, sums.sum_rad, sums.sum_sq,
                                                 sums.sum_hit, 0, h)
-        cuda.synchronize()
-    finally:
-        if ctx is not None:
-            ctx.__exit__(None, None, None)
     cache.tick()
 
 
@@ -234,8 +228,7 @@ def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out)
     d_B = cache.get(B)
     d_out = cuda.to_device(out)
     shape = sig_l.shape
-    ctx = _quiet() if simulator() else None
-    try:
+    with _launch():
         for a, s in sweeps:
             nb, nc = [shape[i] for i in range(3) if i != a]
             d_hist = cuda.to_device(np.zeros((jump + 1, nb, nc)))
@@ -250,9 +243,5 @@ def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out)
                                                 0, nb)
                 done += 1
                 k += s
-        cuda.synchronize()
-    finally:
-        if ctx is not None:
-            ctx.__exit__(None, None, None)
     out[:] = d_out.copy_to_host()
     cache.put(out, d_out)

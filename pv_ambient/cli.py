@@ -104,6 +104,7 @@ def _cmd_bench(args) -> int:
     import runpy
 
     sys.argv = [str(here)] + rest
+    sys.path.insert(0, str(here.parent))  # as `python benchmarks/X.py` would: their shared helpers
     runpy.run_path(str(here), run_name="__main__")
     return 0
 
@@ -138,7 +139,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        if args.command != "bench":
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        args.rest = extra + list(args.rest)  # `bench --backend cuda ...`: options go to the benchmark
     try:
         return args.func(args)
     except (ValueError, TypeError, FileNotFoundError, KeyError) as exc:

@@ -115,3 +115,19 @@ def test_console_script_is_installed(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert np.load(out).shape == (6, 8, 3)
     assert load_scene(sp).render_kwargs["window_size"] == (8, 6)
+
+
+def test_bench_backend_cuda_runs_the_gpu_benchmark(monkeypatch):
+    # `pv-ambient bench --backend cuda ARGS` runs benchmarks/gpu.py with ARGS (options pass through)
+    import runpy
+
+    from pv_ambient.cli import main
+
+    seen = {}
+    monkeypatch.setattr(runpy, "run_path", lambda path, run_name: seen.update(path=path, argv=list(sys.argv)))
+    monkeypatch.setattr(sys, "argv", list(sys.argv))
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    assert main(["bench", "--backend", "cuda", "--cases", "8:4", "--repeats", "1"]) == 0
+    assert seen["path"].endswith("gpu.py") and seen["argv"][1:] == ["--cases", "8:4", "--repeats", "1"]
+    assert main(["bench", "ambient", "--sizes", "16"]) == 0
+    assert seen["path"].endswith("ambient.py") and seen["argv"][1:] == ["--sizes", "16"]
