@@ -74,9 +74,13 @@ Flux-limited diffusion (``flux_limited=True``): ``D = λ(R)/σt'`` with Levermor
 coefficients). The first pass is plain diffusion, then up to ``max_outer`` re-solves, each warm
 started; they stop when σs·φ changes by less than ``outer_tol`` (relative 2-norm). The plain
 lagged iteration contracts by only ≈ 0.8 per pass where the medium is optically thin, so the
-passes are accelerated by Anderson mixing of depth 2 (measured on the benchmarks' three scenes
-at 64³ and 128³: 5–9 passes to 1%, 4.7–11× the plain solve's time). Where σt' = 0 the limiter gives
-``D = φ/|∇φ − 3Q1|`` (free streaming); only a uniform empty region falls back to the floor's D.
+passes are accelerated by Anderson mixing of depth 2. The first pass and the lagged passes are
+solved only to ``INNER_REL·outer_tol`` (1e−3): the change they measure is ten times larger, and
+the last pass is then finished to ``tol`` (same D), so ``residual`` and ``power`` hold as for
+plain diffusion. Measured on the benchmarks' three scenes at 64³: 3 passes per channel,
+137 → 86, 135 → 84, 142 → 91 iterations against solving every pass to ``tol``, φ changed by
+2e−5 / 5e−6 / 5e−6 (relative 2-norm). Where σt' = 0 the limiter gives ``D = φ/|∇φ − 3Q1|``
+(free streaming, at most the vacuum floor's ℓ̄/3).
 
 Camera pass
 -----------
@@ -131,6 +135,8 @@ SIGMA_FLOOR_REL = 1.0
 SERIAL_NODES = 32768
 #: History depth of the Anderson mixing that accelerates the flux limiter's lagged passes.
 ANDERSON_DEPTH = 2
+#: The flux limiter's lagged solves stop at this fraction of ``outer_tol`` (the last one at ``tol``).
+INNER_REL = 0.1
 #: Smallest diffusion coefficient the flux limiter may produce, in units of the smallest spacing.
 D_MIN_REL = 1e-6
 
@@ -724,8 +730,10 @@ def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, 
     flux limiter's passes converged)."""
     w, c, b = _system(grid, sigma_a, D0, Q0, Q1)
     levels = _hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [_Level(w, c)]
-    phi, its, res = _pcg(levels, b, x0, tol, maxiter, preconditioner, bar)
-    worst = res
+    # The flux limiter's passes only need each lagged solve well below the change they measure
+    # (outer_tol): they run to INNER_REL·outer_tol, and the last one is finished to tol.
+    loose = max(tol, INNER_REL * outer_tol) if flux_limited else tol
+    phi, its, res = _pcg(levels, b, x0, loose, maxiter, preconditioner, bar)
     D = D0
     outer = 0
     outer_ok = True
@@ -742,9 +750,8 @@ def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, 
             D = _flux_limited_D(grid, x, sig_p, Q1, d_max, d_min)
             w, c, b = _system(grid, sigma_a, D, Q0, Q1)
             levels = _hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [_Level(w, c)]
-            phi, k, res = _pcg(levels, b, x, tol, maxiter, preconditioner, bar)
+            phi, k, res = _pcg(levels, b, x, loose, maxiter, preconditioner, bar)
             its += k
-            worst = max(worst, res)
             change = float(np.linalg.norm(weight * (phi - x))) / max(float(np.linalg.norm(weight * phi)), 1e-300)
             if change < outer_tol:
                 outer_ok = True
@@ -753,6 +760,10 @@ def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, 
             gs.append(phi)
             del xs[:-(ANDERSON_DEPTH + 1)], gs[:-(ANDERSON_DEPTH + 1)]
             x = _anderson(xs, gs) if len(xs) > 1 else phi
+    if loose > tol and res > tol:  # finish the last solve (same D) to the stated tolerance
+        phi, k, res = _pcg(levels, b, phi, tol, maxiter, preconditioner, bar)
+        its += k
+    worst = res
     return phi, D, its, worst, outer, outer_ok
 
 

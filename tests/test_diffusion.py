@@ -297,6 +297,24 @@ def test_flux_limited_closer_to_transport(tau, albedo):
     assert err[True] < err[False]
 
 
+def test_flux_limited_loose_passes_match_tight_ones(monkeypatch):
+    """The limiter's lagged passes solve only to INNER_REL·outer_tol, the last to tol: the same
+    answer as tight passes to well below outer_tol (both stop within about outer_tol of the fixed
+    point), the stated residual and power balance, fewer iterations. Measured here: relative
+    difference 1.1e-3 (outer_tol 1e-2), distance to a solution converged to outer_tol 1e-5
+    3.1e-3 (loose) vs 2.7e-3 (tight), iterations 118 → 68; on the trade supernova at 64³
+    difference 2e-5, iterations 137 → 86."""
+    sig, alb, Q0, Q1, h = _sphere_scene(n=24, g=0.6)
+    loose = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
+    monkeypatch.setattr(dm, "INNER_REL", 1e-6)  # every pass to tol
+    tight = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
+    assert loose.converged and tight.converged and loose.residual <= 1e-6
+    assert np.linalg.norm(loose.phi - tight.phi) / np.linalg.norm(tight.phi) < 0.2 * 1e-2
+    assert loose.iterations < tight.iterations
+    bal = loose.power
+    assert np.all(np.abs(bal["absorbed"] + bal["escaped"] - bal["source"]) <= 1e-5 * bal["source"])
+
+
 def test_flux_limited_vacuum_is_finite_and_bounded():
     sig, alb, Q0, Q1, h = _sphere_scene(n=24, g=0.0)
     plain = dm.solve_diffusion(sig, alb, 0.0, (h, h, h), Q0)
