@@ -165,6 +165,11 @@ def test_auto_rules():
     res = r.render(camera=CAM, window_size=SIZE, model="auto", quality="accurate")
     assert res.metadata["model"] == "diffusion"
     assert any(k[0] == "diffusion" and k[-1] is True for k in r._cache)
+    # the default ("balanced"): plain diffusion, lower error than ambient scattering on every
+    # trade scene at a similar camera-move cost
+    res = r.render(camera=CAM, window_size=SIZE, model="auto")
+    assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is False
+    assert any(k[0] == "diffusion" and k[-1] is False for k in r._cache)
 
 
 def test_ambient_occlusion_homogeneous_box():
