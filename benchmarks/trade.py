@@ -231,35 +231,44 @@ def main(argv=None):
 
 
 def plot(rows, path):
+    """Error against time, one panel per scene and time axis (DESIGN §6): the first frame (every
+    cache cold) on the top row, a camera move (caches warm) on the bottom row."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = sorted({r["scene"] for r in rows}, key=[r["scene"] for r in rows].index)
-    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.6), squeeze=False)
-    for ax, name in zip(axes[0], names):
-        sub = [r for r in rows if r["scene"] == name]
-        groups = {}
-        for r in sub:
-            label = r["model"] if r["model"] != "ambient_scattering" else "AS " + r["preset"].split()[0]
-            if label in ("AS preview", "AS accurate"):
-                label = "AS presets"
-            if r["model"] == "diffusion":
-                label = "diffusion " + r["preset"]
-            groups.setdefault(label, []).append(r)
-        for label, rs in groups.items():
-            x = [r["move"] for r in rs]
-            y = [r["block_rmse"] for r in rs]
-            style = "-o" if label.startswith("path_traced") else "o"
-            ax.loglog(x, y, style, label=label, ms=4)
-        ax.set_title(name)
-        ax.set_xlabel("camera-move frame time / VTK EA frame")
-        ax.set_ylabel("4×4-block relative RMSE")
-        ax.grid(True, which="both", alpha=0.3)
+    fig, axes = plt.subplots(2, len(names), figsize=(4.2 * len(names), 7.0), squeeze=False)
+    for row_axes, key, what in ((axes[0], "first", "first frame"), (axes[1], "move", "camera-move frame")):
+        for ax, name in zip(row_axes, names):
+            sub = [r for r in rows if r["scene"] == name]
+            groups = {}
+            for r in sub:
+                label = r["model"] if r["model"] != "ambient_scattering" else "AS " + r["preset"].split()[0]
+                if label in ("AS preview", "AS accurate"):
+                    label = "AS presets"
+                if r["model"] == "diffusion":
+                    label = "diffusion " + r["preset"]
+                groups.setdefault(label, []).append(r)
+            for label, rs in groups.items():
+                x = [float(r[key]) for r in rs]
+                y = [float(r["block_rmse"]) for r in rs]
+                style = "-o" if label.startswith("path_traced") else "o"
+                ax.loglog(x, y, style, label=label, ms=4)
+            ax.set_title(f"{name}: {what}")
+            ax.set_xlabel(f"{what} time / VTK EA frame")
+            ax.set_ylabel("4×4-block relative RMSE")
+            ax.grid(True, which="both", alpha=0.3)
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+def plot_csv(csv_path, path):
+    """Redraw the plot from a ``trade.csv`` (no rendering)."""
+    with open(csv_path, newline="") as f:
+        plot(list(csv.DictReader(f)), path)
 
 
 if __name__ == "__main__":
