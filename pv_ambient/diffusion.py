@@ -50,7 +50,11 @@ cube) 0.353 / 0.164 / 0.107 (−7 / +6 / −3 %); with ``10/L`` 0.131 / 0.550 / 
 floor carries the light around the supernova's hollow interior and darkens its lit side;
 too large a floor holds light back in the cloud's thin fringes. The flux-limited solve barely
 depends on it (0.217 / 0.164 / 0.060 with the default, 0.218 / 0.18 / 0.06 before). A larger
-floor also conditions the matrix better: fewer iterations.
+floor also conditions the matrix better: fewer iterations. On scenes nothing was chosen on
+(``benchmarks/diffusion_floor.py``: smoke plume, Marschner–Lobb lit from its centre, the cloud
+under a directional light) the default against the earlier floor: 0.29 vs 0.37, 0.23 vs 0.47,
+0.72 vs 1.00; flux-limited 0.17, 0.14, 0.35 (plain diffusion remains too dark, −33 %, where a
+directional light meets thin fringes: P1 lets light leak out of them, the limiter does not).
 
 Solver
 ------
