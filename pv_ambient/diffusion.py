@@ -53,8 +53,9 @@ depends on it (0.217 / 0.164 / 0.060 with the default, 0.218 / 0.18 / 0.06 befor
 floor also conditions the matrix better: fewer iterations. On scenes nothing was chosen on
 (``benchmarks/diffusion_floor.py``: smoke plume, Marschner–Lobb lit from its centre, the cloud
 under a directional light) the default against the earlier floor: 0.29 vs 0.37, 0.23 vs 0.47,
-0.72 vs 1.00; flux-limited 0.17, 0.14, 0.35 (plain diffusion remains too dark, −33 %, where a
-directional light meets thin fringes: P1 lets light leak out of them, the limiter does not).
+0.72 vs 1.00; flux-limited 0.17, 0.14, 0.35. Plain diffusion remains −33 % dark on the last:
+the camera sees the sunlit side, i.e. light turned back by a forward-scattering medium
+(g = 0.6; −15 % at g = 0), where P1 is poor whatever the floor.
 
 Solver
 ------
