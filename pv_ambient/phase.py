@@ -17,6 +17,7 @@ This module imports only numpy and the kernels (no pyvista), like the rest of th
 from __future__ import annotations
 
 import math
+import warnings
 from numbers import Real
 
 import numpy as np
@@ -285,6 +286,7 @@ class HenyeyGreenstein(PhaseFunction):
     ----------
     g : float
         Anisotropy, ``|g| < 1``; ``g > 0`` is forward scattering. It equals the mean cosine.
+        Kernels clamp ``|g|`` to 0.999 (``p(1)`` stays finite); a larger ``|g|`` warns.
 
     Raises
     ------
@@ -308,6 +310,10 @@ class HenyeyGreenstein(PhaseFunction):
 
     def __init__(self, g: float):
         super().__init__(_k.HENYEY_GREENSTEIN, g)
+        if abs(self._g) > _k.G_MAX:
+            warnings.warn(f"HenyeyGreenstein g={self._g!r} is beyond |g| = {_k.G_MAX}, the sharpest lobe the "
+                          f"kernels resolve (p(1) ≈ 1.6e5/sr): the phase function is evaluated and sampled as "
+                          f"g = {math.copysign(_k.G_MAX, self._g)!r}", UserWarning, stacklevel=2)
 
     @property
     def mean_cosine(self) -> float:

@@ -131,9 +131,9 @@ def test_no_nan_or_inf_at_extremes():
     u = np.array([0.0, 2.0**-53, 0.5, 1.0 - 2.0**-53, 1.0])
     u1, u2 = np.meshgrid(u, u)
     axes = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, -1, 0], [1e-9, 0, -1.0]], dtype=float)
-    for phase in [Isotropic(), Rayleigh()] + [
-        cls(g) for cls in (HenyeyGreenstein, Schlick) for g in (-0.999, 0.999, -0.9999999, 0.9999999)
-    ]:
+    with pytest.warns(UserWarning, match="beyond"):  # HG past 0.999 says it is clamped
+        extremes = [cls(g) for cls in (HenyeyGreenstein, Schlick) for g in (-0.999, 0.999, -0.9999999, 0.9999999)]
+    for phase in [Isotropic(), Rayleigh()] + extremes:
         values = phase.eval(np.array([-1.0, -1.0 - 1e-12, 0.0, 1.0, 1.0 + 1e-12]))
         assert np.all(np.isfinite(values)) and np.all(values > 0.0), (phase, values)
         cos = phase.sample_cos(u)
@@ -374,3 +374,15 @@ def test_kernels_callable_as_scalars():
     assert dx * dx + dy * dy + dz * dz == pytest.approx(1.0, abs=1e-14)
     assert pdf == kp.phase_eval(kp.HENYEY_GREENSTEIN, 0.5, -dz)
     assert kp.phase_sample_cos(kp.ISOTROPIC, 0.0, 0.75) == 0.5
+
+
+def test_hg_beyond_kernel_limit_warns_and_equals_the_limit():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        HenyeyGreenstein(0.999)  # at the limit: silent
+    with pytest.warns(UserWarning, match=r"g=-0\.9995 is beyond \|g\| = 0\.999.*as g = -0\.999"):
+        hg = HenyeyGreenstein(-0.9995)
+    mu = np.linspace(-1, 1, 11)
+    np.testing.assert_array_equal(hg.eval(mu), HenyeyGreenstein(-0.999).eval(mu))
