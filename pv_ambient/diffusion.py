@@ -37,7 +37,7 @@ that crosses a void streams in straight lines and lands, on average, one chord l
 empty space is given the transport length of the void it fills: σt' is floored at
 ``sigma_floor``, by default ``1/ℓ̄`` with ``ℓ̄`` the mean chord length of the medium's box
 (Cauchy's ``4V/S`` for a box; ``πA/P`` when one axis has a single node, twice the thickness
-when two do), the longest a void inside the box can have on average. Equivalently D ≤ ℓ̄/3 (the
+when two do), the scale of the largest void the box can hold. Equivalently D ≤ ℓ̄/3 (the
 diffusion coefficient of a medium whose mean free path is ℓ̄). The floor enters only D, never
 σa, and it also raises σt' in media thinner than one optical depth per mean chord — media that
 light crosses mostly unscattered, where diffusion's local picture fails just as in a void.
