@@ -315,6 +315,102 @@ def test_flux_limited_loose_passes_match_tight_ones(monkeypatch):
     assert np.all(np.abs(bal["absorbed"] + bal["escaped"] - bal["source"]) <= 1e-5 * bal["source"])
 
 
+def test_flux_limited_channels_warm_start_each_other(monkeypatch):
+    """With flux limiting, channel c starts its lagged passes from channel c − 1's solution
+    (scaled by the source power) instead of a plain solve: the same fixed point to within the
+    limiter's stopping tolerance, fewer iterations. Measured on the trade scenes at 64³:
+    iterations 86 → 70, 84 → 57, 181 → 108, φ within 0.9 / 0.8 / 0.3 %."""
+    sig, alb, Q0, Q1, h = _sphere_scene(n=24, g=0.6)
+    warm = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
+    monkeypatch.setattr(dm, "WARM_CHANNELS", False)
+    cold = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
+    assert warm.converged and cold.converged and warm.residual <= 1e-6
+    for c in range(3):
+        d = np.linalg.norm(warm.phi[..., c] - cold.phi[..., c]) / np.linalg.norm(cold.phi[..., c])
+        assert d < 2 * 1e-2, (c, d)  # both stop within about outer_tol (1e-2) of the fixed point
+    assert warm.iterations < cold.iterations
+
+
+def _lp_numpy(phi, sig_p, Q1, h, d_max, d_min):
+    """Levermore–Pomraning D with numpy alone (np.gradient, np.tanh), as an independent check."""
+    G2 = np.zeros(phi.shape)
+    for a in range(3):
+        d = np.gradient(phi, h[a], axis=a) if phi.shape[a] > 1 else np.zeros(phi.shape)
+        if Q1 is not None:
+            d = d - 3.0 * Q1[..., a]
+        G2 += d * d
+    G = np.sqrt(G2)
+    phip = np.maximum(phi, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        R = G / (sig_p * phip)  # nan where G = σt'φ = 0, inf where only σt'φ = 0
+        lam_r = np.where(R > 20, 1 - 1 / R, 1 / np.tanh(R) - 1 / R)  # λ(R)·R
+        D = np.where(R < 1e-3, (1 / 3 - R * R / 45) / sig_p, lam_r * phip / G)  # λ/σt' = λR φ/G
+        plain = np.where(sig_p > 0, 1 / (3 * np.where(sig_p > 0, sig_p, 1.0)), d_max)
+        D = np.where((G == 0) & ~(R < 1e-3), plain, D)
+    return np.clip(D, d_min, d_max)
+
+
+@pytest.mark.parametrize("with_q1", [False, True])
+def test_limiter_kernel_against_numpy(with_q1):
+    """The Numba kernel of the flux limiter's D against a numpy computation: a field with
+    vacuum (σt' = 0), zero fluence, uniform regions, steep and flat gradients, one-node axis."""
+    rng = np.random.default_rng(3)
+    for shape in ((12, 9, 7), (10, 1, 6)):
+        phi = rng.random(shape) ** 3
+        phi[:3] = 0.0  # no light
+        phi[-2:] = 0.5  # uniform: no gradient
+        sig_p = rng.random(shape) * 5
+        sig_p[:, :, :2] = 0.0  # vacuum
+        Q1 = 0.1 * rng.normal(size=shape + (3,)) if with_q1 else None
+        h = (0.1, 0.2, 0.15)
+        grid = SimpleNamespace(shape=shape, h=np.array(h))
+        got = dm._flux_limited_D(grid, phi, sig_p, Q1, 50.0, 1e-7)
+        want = _lp_numpy(phi, sig_p, Q1, h, 50.0, 1e-7)
+        assert np.all(np.isfinite(got))
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+
+
+def _faces_numpy(D, Q1, grid):
+    """Interior couplings and the Q1 divergence with numpy slicing (the assembly's definition)."""
+    shape = D.shape
+    w, b = [], np.zeros(shape)
+    for a in range(3):
+        n = shape[a]
+        wa = np.zeros(shape)
+        w.append(wa)
+        if n < 2:
+            continue
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[a], hi[a] = slice(0, n - 1), slice(1, n)
+        lo, hi = tuple(lo), tuple(hi)
+        Df = 2 * D[lo] * D[hi] / (D[lo] + D[hi])
+        wa[lo] = Df * grid.area[a] / grid.h[a]
+        if Q1 is not None:
+            g = 3.0 * Df * grid.area[a] * 0.5 * (Q1[..., a][lo] + Q1[..., a][hi])
+            b[lo] -= g
+            b[hi] += g
+    return w, b
+
+
+@pytest.mark.parametrize("association", ["point", "cell"])
+@pytest.mark.parametrize("with_q1", [False, True])
+def test_assembly_kernel_against_numpy(association, with_q1):
+    rng = np.random.default_rng(5)
+    for shape in ((9, 7, 5), (6, 1, 4)):
+        grid = dm._Grid(shape, (0.3, 0.2, 0.25), association)
+        D = 0.01 + rng.random(shape)
+        Q1 = rng.normal(size=shape + (3,)) if with_q1 else None
+        Q0 = rng.random(shape)
+        w, c, b = dm._system(grid, np.zeros(shape), D, Q0, Q1)
+        w_ref, db_ref = _faces_numpy(D, Q1, grid)
+        for a in range(3):
+            np.testing.assert_allclose(w[a], w_ref[a], rtol=1e-13, atol=0)
+        # b = Q0 V + divergence + box-face terms (cell data with Q1 only): compare the interior
+        inner = tuple(slice(1, -1) if n > 2 else slice(None) for n in shape)
+        np.testing.assert_allclose((b - Q0 * grid.volume)[inner], db_ref[inner], rtol=1e-12, atol=1e-12)
+
+
 def test_flux_limited_vacuum_is_finite_and_bounded():
     sig, alb, Q0, Q1, h = _sphere_scene(n=24, g=0.0)
     plain = dm.solve_diffusion(sig, alb, 0.0, (h, h, h), Q0)
