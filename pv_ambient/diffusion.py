@@ -49,7 +49,7 @@ Measured against converged path tracing (``benchmarks/trade.py``'s three scenes 
 cube) 0.353 / 0.164 / 0.107 (−7 / +6 / −3 %); with ``10/L`` 0.131 / 0.550 / 0.170. Too small a
 floor carries the light around the supernova's hollow interior and darkens its lit side;
 too large a floor holds light back in the cloud's thin fringes. The flux-limited solve barely
-depends on it (0.217 / 0.164 / 0.060 with the default, 0.218 / 0.18 / 0.06 before). A larger
+depends on it (0.217 / 0.167 / 0.061 with the default, 0.218 / 0.18 / 0.06 before). A larger
 floor also conditions the matrix better: fewer iterations. On scenes nothing was chosen on
 (``benchmarks/diffusion_floor.py``: smoke plume, Marschner–Lobb lit from its centre, the cloud
 under a directional light) the default against the earlier floor: 0.29 vs 0.37, 0.23 vs 0.47,

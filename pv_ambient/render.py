@@ -386,7 +386,7 @@ class Renderer:
                camera-move cost; its first frame costs 1.2–2.2× ambient scattering's and
                2.4–6.5× that of ambient scattering's "preview", the cheapest first frame that
                carries multiply scattered light; flux-limited diffusion is the lowest-error
-               noise-free model (0.22 / 0.16 / 0.06) at a first frame 1.3–2.4× plain
+               noise-free model (0.22 / 0.17 / 0.06) at a first frame 1.3–2.4× plain
                diffusion's (README, "The trade");
             5. with ``time_budget=SECONDS`` (a still image): ``path_traced`` with as many samples
                per pixel as fit in the budget (``samples_per_pixel`` is then the cap, default
