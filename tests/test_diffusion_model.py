@@ -83,3 +83,23 @@ def test_vacuum_floor_against_path_tracing(monkeypatch):
         err[name] = (metrics.block_relative_rmse(img, ref.radiance, mask), metrics.relative_bias(img, ref.radiance, mask))
     assert err["default"][0] < 0.25 and abs(err["default"][1]) < 0.15, err
     assert err["conductor"][0] > err["default"][0] + 0.1, err
+
+
+def test_flux_limited_converges_with_a_light_inside():
+    """A point light at the centre of a small medium (tests/test_extremes.py's scale scene): the
+    limiter's lagged passes need more than the earlier default of 10 there (which warned); with
+    the default of 20 they converge without a warning."""
+    import warnings
+
+    from test_extremes import scaled_scene
+
+    from pv_ambient import diffusion as dm
+
+    r, cam, g, options = scaled_scene("outside", 1.0)
+    inside = r.lights[0]
+    with pytest.warns(UserWarning, match="did not converge"):
+        dm.solve_for_light(r, inside, 0.6, flux_limited=True, max_outer=10)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sol = dm.solve_for_light(r, inside, 0.6, flux_limited=True)
+    assert sol.converged

@@ -102,9 +102,8 @@ MODELS = {
     "ambient_scattering/beer_lambert": ("ambient_scattering", {"propagation": "beer_lambert"}),
     "ambient_scattering/tube": ("ambient_scattering", {"propagation": "tube"}),
     "path_traced": ("path_traced", {"samples_per_pixel": PT_SPP}),
-    # plain diffusion; the flux-limited solve is not in the matrix: its lagged passes need not
-    # converge within max_outer near a point light inside the medium or in near-vacuum (it
-    # warns; e.g. the scale scene "outside" and σ = 1e−6, albedo 1, g = 0.99 with a light inside)
+    # plain diffusion; the flux-limited solve is not in the matrix: in near-vacuum (σ = 1e−6,
+    # albedo 1, g = 0.99, a light inside) its lagged passes do not converge and it warns
     "diffusion": ("diffusion", {}),
 }
 
