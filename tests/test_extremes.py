@@ -18,7 +18,8 @@ scale invariance.
   §4.3's factor, 2× where σt·h > 0.3); preintegrated tables always at ``"preview"`` effort;
 * model: ``emission_absorption``, ``ambient_occlusion``, ``single_scattering``,
   ``ambient_scattering`` with ``propagation="beer_lambert"`` and ``"tube"``, ``path_traced``
-  (4 samples per pixel), ``diffusion`` (plain; added when it became ``auto``'s default).
+  (4 samples per pixel), ``diffusion`` plain and flux-limited (added when diffusion became
+  ``auto``'s default; one flux-limited row is a known failure, ``KNOWN_FAILURES``).
 
 The full product is 4·2·3·3·5·6·2 = 4320 scenes per model. Instead, for every model the rows
 form a *pairwise covering array* of the seven scene factors (greedy, deterministic,
@@ -102,9 +103,15 @@ MODELS = {
     "ambient_scattering/beer_lambert": ("ambient_scattering", {"propagation": "beer_lambert"}),
     "ambient_scattering/tube": ("ambient_scattering", {"propagation": "tube"}),
     "path_traced": ("path_traced", {"samples_per_pixel": PT_SPP}),
-    # plain diffusion; the flux-limited solve is not in the matrix: in near-vacuum (σ = 1e−6,
-    # albedo 1, g = 0.99, a light inside) its lagged passes do not converge and it warns
     "diffusion": ("diffusion", {}),
+    "diffusion/flux_limited": ("diffusion", {"flux_limited": True}),
+}
+
+#: Rows known to fail, as strict xfails (a fix makes them pass and the suite says so).
+KNOWN_FAILURES = {
+    "diffusion/flux_limited-s1e-06-a1-g0.99-h1-inside-camera_inside-balanced":
+        "near-vacuum (σ = 1e−6, albedo 1, g = 0.99, a light inside): the flux limiter's lagged passes "
+        "diverge and the solve warns that it did not converge",
 }
 
 LEVELS = {
@@ -251,7 +258,9 @@ def render_quietly(renderer, camera, model, g, **options):
 # --- the matrix ----------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("model, case", CASES, ids=[_case_id(m, c) for m, c in CASES])
+@pytest.mark.parametrize("model, case", [
+    pytest.param(m, c, id=_case_id(m, c), marks=[pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[_case_id(m, c)])]
+                 if _case_id(m, c) in KNOWN_FAILURES else []) for m, c in CASES])
 def test_extreme_case(model, case):
     r, cam = make_scene(case["sigma"], case["albedo"], case["spacing"], case["light"], case["geometry"])
     res, caught = render_quietly(r, cam, model, case["g"], quality=case["quality"])
@@ -282,7 +291,7 @@ SCALE_ATOL_ALPHA = 1e-6
 #: max |Δradiance| / max(radiance) measured over s ∈ {1e−4, 1e4, 1e−9} and both scenes
 SCALE_MEASURED = {"emission_absorption": 4e-8, "ambient_occlusion": 7e-8, "single_scattering": 7e-8,
                   "ambient_scattering/beer_lambert": 7e-8, "ambient_scattering/tube": 7e-8, "path_traced": 1.4e-7,
-                  "diffusion": 7e-8}
+                  "diffusion": 7e-8, "diffusion/flux_limited": 7e-8}
 
 
 def scaled_scene(kind, s):
