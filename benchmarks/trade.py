@@ -136,17 +136,18 @@ def main(argv=None):
             return (metrics.block_relative_rmse(img, ref.radiance, mask), metrics.relative_rmse(img, ref.radiance, mask),
                     metrics.relative_bias(img, ref.radiance, mask), metrics.ssim(img, ref.radiance))
 
+        nan3 = dict(bias_seeds=float("nan"), bias_se=float("nan"), within_3pct=float("nan"))
+
         def seed_bias(spp, **kw):
             """Mean and standard error of the image-mean error over seeds, share within 3 %."""
             if args.bias_seeds <= 0 or spp > 64:
-                return dict(bias_seeds=float("nan"), bias_se=float("nan"), within_3pct=float("nan"))
+                return nan3
             b = np.array([metrics.relative_bias(r.render(camera=cam, window_size=size, model="path_traced", phase=g,
                                                          seed=1000 + k, samples_per_pixel=spp, **kw).radiance,
                                                 ref.radiance, mask) for k in range(args.bias_seeds)])
             return dict(bias_seeds=float(b.mean()), bias_se=float(b.std(ddof=1) / np.sqrt(b.size)),
                         within_3pct=float(np.mean(np.abs(b) <= 0.03)))
 
-        nan3 = dict(bias_seeds=float("nan"), bias_se=float("nan"), within_3pct=float("nan"))
         # path tracer curve (no denoiser), each point its own seed
         pt = []
         spp = 1

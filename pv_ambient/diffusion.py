@@ -149,6 +149,8 @@ ANDERSON_DEPTH = 2
 WARM_CHANNELS = True
 #: The flux limiter's lagged solves stop at this fraction of ``outer_tol`` (the last one at ``tol``).
 INNER_REL = 0.1
+#: Placeholder passed to the kernels when there is no first-moment source.
+_NO_Q1 = np.zeros((1, 1, 1, 3))
 #: Smallest diffusion coefficient the flux limiter may produce, in units of the smallest spacing.
 D_MIN_REL = 1e-6
 
@@ -711,9 +713,6 @@ def _flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
     limiter_coefficients(np.ascontiguousarray(phi, np.float64), np.ascontiguousarray(sig_p, np.float64), q1,
                              Q1 is not None, hx, hy, hz, float(d_max), float(d_min), out)
     return out
-
-
-_NO_Q1 = np.zeros((1, 1, 1, 3))
 
 
 def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited,
