@@ -30,7 +30,8 @@ import pyvista as pv  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
-from pv_ambient.pyvista_ext import add_vtk_volume  # noqa: E402
+from pv_ambient.inputs.camera import default_camera  # noqa: E402
+from pv_ambient.pyvista.plotter import add_vtk_volume  # noqa: E402
 from _timing import median_time  # noqa: E402
 
 
@@ -51,7 +52,7 @@ def main(argv=None):
         tf = pa.TransferFunction(**style, albedo=0.9)
         light = pa.PointLight((0.0, 0.0, 0.0), intensity=4.0)
         r = pa.Renderer(grid, transfer_function=tf, lights=[light])
-        cam = pa.camera.default_camera(grid.bounds)
+        cam = default_camera(grid.bounds)
         step = r.default_step()
 
         pl = pv.Plotter(off_screen=True, window_size=size)
@@ -88,7 +89,7 @@ def main(argv=None):
             r2.render(camera=cam, **opts)
 
         t_tf = median_time(tf_change, args.repeats)
-        from pv_ambient.preintegration import get_table
+        from pv_ambient.stages.preintegration import get_table
 
         t0 = time.perf_counter()
         get_table(0.5, albedo_range=(0.0, 0.9), cache=False)

@@ -24,8 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import datasets_synthetic as ds  # noqa: E402
 import pv_ambient as pa  # noqa: E402
-from pv_ambient._grid import Volume  # noqa: E402
-from pv_ambient.phase import as_phase  # noqa: E402
+from pv_ambient.inputs.grid import Volume  # noqa: E402
+from pv_ambient.inputs.phase import as_phase  # noqa: E402
 from _timing import median_time  # noqa: E402
 
 

@@ -1,4 +1,4 @@
-"""Out-of-sample check of the diffusion model's vacuum floor (pv_ambient.diffusion, "Vacuum
+"""Out-of-sample check of the diffusion model's vacuum floor (pv_ambient.stages.diffusion, "Vacuum
 floor") on scenes the trade benchmark does not use: smoke plume (point light, g = 0.3), the
 Marschner–Lobb volume lit from its centre, the cloud under a directional light (g = 0.6).
 
@@ -9,7 +9,7 @@ and 10/diagonal, and single / ambient scattering for scale; 4×4-block relative 
 Usage: ``python benchmarks/diffusion_floor.py [smoke_plume,marschner_lobb,cloud_sun]``
 """
 import sys, time, numpy as np
-import pv_ambient as pa, pv_ambient.diffusion as dm
+import pv_ambient as pa, pv_ambient.stages.diffusion as dm
 from pv_ambient import datasets, metrics
 size=(64,64)
 def scene(name):

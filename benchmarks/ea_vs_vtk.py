@@ -25,7 +25,8 @@ import pyvista as pv  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
-from pv_ambient.pyvista_ext import add_vtk_volume  # noqa: E402
+from pv_ambient.inputs.camera import default_camera  # noqa: E402
+from pv_ambient.pyvista.plotter import add_vtk_volume  # noqa: E402
 
 
 def vtk_frames(grid, renderer, cam, size, step, mapper, repeats):
@@ -76,7 +77,7 @@ def main(argv=None):
         tf = pa.TransferFunction(cmap=style["cmap"], clim=style["clim"], opacity=style["opacity"],
                                  density_scale=style["density_scale"])
         r = pa.Renderer(grid, transfer_function=tf)
-        cam = pa.camera.default_camera(grid.bounds)
+        cam = default_camera(grid.bounds)
         step = r.default_step()
         t_ours, res = our_frames(r, cam, size, step, args.repeats)
         row = [t_ours]

@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a ch
 
 import datasets_synthetic as ds  # noqa: E402
 import pv_ambient as pa  # noqa: E402
-from pv_ambient._grid import Volume  # noqa: E402
+from pv_ambient.inputs.grid import Volume  # noqa: E402
 from _timing import median_time  # noqa: E402
 
 MODELS = ("emission_absorption", "single_scattering", "ambient_scattering", "diffusion", "path_traced")

@@ -66,7 +66,7 @@ def scenes(n):
 def vtk_time(grid, r, cam, size, step, repeats):
     import pyvista as pv
 
-    from pv_ambient.pyvista_ext import add_vtk_volume
+    from pv_ambient.pyvista.plotter import add_vtk_volume
 
     pl = pv.Plotter(off_screen=True, window_size=size)
     add_vtk_volume(pl, grid, r, step=step, mapper="fixed_point")
@@ -166,7 +166,7 @@ def main(argv=None):
                              **seed_bias(spp)))
             spp *= 2
 
-        from pv_ambient.denoise import available
+        from pv_ambient.stages.denoise import available
 
         if available():  # path tracing + OIDN (the optional extra "denoise")
             for spp in (1, 2, 4, 16, 64):

@@ -32,7 +32,6 @@ import warnings
 
 import numpy as np
 
-from ._validation import check_choice
 
 BACKENDS = ("auto", "cpu", "cuda")
 
@@ -73,7 +72,8 @@ def resolve_backend(backend="auto") -> str:
 
     Raises the :func:`cuda_problem` error for ``"cuda"`` when CUDA cannot run.
     """
-    check_choice(backend, "backend", BACKENDS)
+    if not isinstance(backend, str) or backend not in BACKENDS:  # callers check it; this layer sits below inputs
+        raise ValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
     if backend == "cpu":
         return "cpu"
     problem = cuda_problem()
@@ -216,7 +216,7 @@ def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
 
 
 def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out):
-    """The optical-depth sweeps of :func:`pv_ambient.propagation.optical_depth` on the GPU: one
+    """The optical-depth sweeps of :func:`pv_ambient.stages.propagation.optical_depth` on the GPU: one
     kernel launch per layer (the layers depend on each other), nodes of a layer in parallel.
     Fills the host array ``out`` and registers its device copy in ``cache``."""
     from numba import cuda

@@ -51,9 +51,9 @@ def _cmd_demo(args) -> int:
     import pyvista as pv
 
     from . import datasets
-    from .lights import PointLight
-    from .pyvista_ext import compare
-    from .render import Renderer
+    from .inputs.lights import PointLight
+    from .pyvista.plotter import compare
+    from .rendering.renderer import Renderer
 
     pv.OFF_SCREEN = True
     outdir = Path(args.output)

@@ -16,7 +16,7 @@ A scene file is a JSON object. Keys (all but ``volume`` optional)::
      "camera": {"position": [0, -4, 0], "focal_point": [0, 0, 0], "view_up": [0, 0, 1],
                 "view_angle": 30.0, "parallel_projection": false, "parallel_scale": 1.0},
      "image": {"width": 256, "height": 256},
-     "model": "ambient_scattering",         # see pv_ambient.render.ALL_MODELS
+     "model": "ambient_scattering",         # see pv_ambient.rendering.renderer.ALL_MODELS
      "quality": "balanced",                 # "preview" | "balanced" | "accurate"
      "background": [0, 0, 0],               # constant background radiance
      "step": null, "seed": 0, "jitter": false,
@@ -44,10 +44,10 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ._validation import check_choice, check_window_size
+from .inputs.validation import check_choice, check_window_size
 from .backend import BACKENDS
-from .render import SCENE_OPTIONS as MODEL_KEYS
-from .render import QUALITY_STEP
+from .rendering.renderer import SCENE_OPTIONS as MODEL_KEYS
+from .rendering.renderer import QUALITY_STEP
 
 SCENE_VERSION = 1
 TOP_KEYS = {"version", "volume", "scalars", "transfer_function", "phase", "lights", "camera", "image", "model",
@@ -148,7 +148,7 @@ def load_scene(path) -> Scene:
 
 def render_scene(scene, *, progress_bar=False):
     """Render a :class:`Scene`, a scene dict, or a path to a scene file → RenderResult."""
-    from .render import Renderer
+    from .rendering.renderer import Renderer
 
     if isinstance(scene, (str, Path)):
         scene = load_scene(scene)

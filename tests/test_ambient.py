@@ -7,8 +7,9 @@ import pytest
 import pyvista as pv
 
 import pv_ambient as pa
-from pv_ambient.camera import Camera
-from pv_ambient.lights import DirectionalLight, PointLight
+from pv_ambient.inputs.camera import Camera
+from pv_ambient.inputs.phase import as_phase
+from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
 CAM = Camera((0.2, -4.0, 0.3), (0, 0, 0), (0, 0, 1), view_angle=35)
 SIZE = (24, 20)
@@ -97,7 +98,7 @@ def test_tube_front_equals_beer_lambert_at_albedo_zero():
     r = renderer(grid)
     lg = r.light_grid(1.0)
     radius = r._radius("3 voxels")
-    tab = r.table(pa.phase.as_phase(None), radius, quality="preview")
+    tab = r.table(as_phase(None), radius, quality="preview")
     for light in LIGHTS:
         tau = r.optical_depth(light, lg)
         front = r.front_depth(light, lg, radius, tab)
@@ -110,7 +111,7 @@ def test_tube_front_in_vacuum_is_one():
     r = renderer(grid)
     lg = r.light_grid(1.0)
     radius = r._radius("2 voxels")
-    tab = r.table(pa.phase.as_phase(None), radius, quality="preview")
+    tab = r.table(as_phase(None), radius, quality="preview")
     assert np.all(r.front_depth(LIGHTS[0], lg, radius, tab) == 0.0)
 
 
@@ -197,7 +198,7 @@ def test_ambient_occlusion_homogeneous_box():
 def test_three_albedo_lookup_equals_single_lookups():
     from pv_ambient._kernels.preint import d_lookup, tau_coord
     from pv_ambient._kernels.raycast import d_lookup3
-    from pv_ambient.preintegration import get_table
+    from pv_ambient.stages.preintegration import get_table
 
     rng = np.random.default_rng(1)
     for g in (0.0, 0.6):

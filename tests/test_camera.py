@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import pyvista as pv
 
-from pv_ambient.camera import Camera, as_camera, default_camera
+from pv_ambient.inputs.camera import Camera, as_camera, default_camera
 
 
 def vtk_pixels(cam: Camera, points, size):
@@ -109,6 +109,6 @@ def test_plotter_subplot_size_and_explicit_window_size():
 
 
 def pa_as_camera(pl):
-    from pv_ambient.camera import as_camera
+    from pv_ambient.inputs.camera import as_camera
 
     return as_camera(pl)

@@ -104,7 +104,7 @@ for name in ("pyvista", "vtk", "vtkmodules"):
     sys.modules[name] = None  # import fails
 import numpy as np
 import pv_ambient as pa
-from pv_ambient._grid import Volume
+from pv_ambient.inputs.grid import Volume
 x, y, z = np.meshgrid(*(np.linspace(-1, 1, 12),) * 3, indexing="ij")
 vol = Volume(np.exp(-4 * (x * x + y * y + z * z)).astype(np.float32), spacing=(2 / 11,) * 3, origin=(-1,) * 3)
 tf = pa.TransferFunction.from_table([0.0, 1.0], sigma_t=[0.0, 8.0], albedo=0.9, color=[[0, 0, 0], [1, 1, 1]])

@@ -5,7 +5,7 @@ import pytest
 
 import datasets_synthetic as ds
 from pv_ambient import datasets
-from pv_ambient._grid import volume_from_image
+from pv_ambient.inputs.grid import volume_from_image
 
 
 @pytest.mark.parametrize("name", datasets.NAMES)

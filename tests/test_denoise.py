@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pv_ambient as pa
-from pv_ambient.denoise import available
+from pv_ambient.stages.denoise import available
 
 pv = pytest.importorskip("pyvista")
 
@@ -46,7 +46,7 @@ def test_denoised_result_keeps_standard_error():
 
 # --- mean preservation and the albedo guide (run without pyoidn: the denoiser is mocked) ---
 
-from pv_ambient import denoise as dn  # noqa: E402
+from pv_ambient.stages import denoise as dn  # noqa: E402
 
 
 class FakeOIDN:

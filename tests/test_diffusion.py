@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.special import expn
 
-from pv_ambient import diffusion as dm
-from pv_ambient._grid import make_geometry
-from pv_ambient.lights import DirectionalLight, PointLight
+from pv_ambient.stages import diffusion as dm
+from pv_ambient.inputs.grid import make_geometry
+from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
 REFLECT_LOW = (("reflect", "marshak"),) * 3
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from pv_ambient.lights import PointLight
+from pv_ambient.inputs.lights import PointLight
 from test_ambient import LIGHTS, physical_grid, rel, render, renderer
 
 
@@ -55,7 +55,7 @@ def test_vacuum_floor_against_path_tracing(monkeypatch):
     import pyvista as pv
 
     import pv_ambient as pa
-    from pv_ambient import diffusion as dm
+    from pv_ambient.stages import diffusion as dm
     from pv_ambient import metrics
 
     n = 24
@@ -93,7 +93,7 @@ def test_flux_limited_converges_with_a_light_inside():
 
     from test_extremes import scaled_scene
 
-    from pv_ambient import diffusion as dm
+    from pv_ambient.stages import diffusion as dm
 
     r, cam, g, options = scaled_scene("outside", 1.0)
     inside = r.lights[0]

@@ -4,7 +4,7 @@ import pytest
 import pyvista as pv
 
 import pv_ambient as pa
-from pv_ambient.camera import Camera
+from pv_ambient.inputs.camera import Camera
 
 
 def box_grid(dims=(20, 20, 20), spacing=0.1, origin=-0.95, value=1.0):

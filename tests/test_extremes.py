@@ -90,8 +90,8 @@ import pytest
 import pyvista as pv
 
 import pv_ambient as pa
-from pv_ambient.camera import Camera
-from pv_ambient.lights import DirectionalLight, PointLight
+from pv_ambient.inputs.camera import Camera
+from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
 SIZE = (12, 10)
 PT_SPP = 4

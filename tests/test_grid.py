@@ -4,7 +4,7 @@ import pytest
 import pyvista as pv
 from vtkmodules.vtkCommonDataModel import vtkImageData
 
-from pv_ambient._grid import Volume, image_geometry, select_scalars, volume_from_image
+from pv_ambient.inputs.grid import Volume, image_geometry, select_scalars, volume_from_image
 
 
 def rotated_grid():

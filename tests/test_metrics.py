@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pv_ambient import metrics
-from pv_ambient.camera import Camera
+from pv_ambient.inputs.camera import Camera
 
 
 def test_relative_rmse_and_bias():

@@ -18,7 +18,7 @@ from scipy import integrate, stats
 from pv_ambient._kernels import phase as kp
 from pv_ambient._kernels import rng
 from pv_ambient._kernels._jit import driver
-from pv_ambient.phase import (
+from pv_ambient.inputs.phase import (
     HenyeyGreenstein,
     Isotropic,
     PhaseFunction,

@@ -36,12 +36,12 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from pv_ambient import preintegration as P
+from pv_ambient.stages import preintegration as P
 from pv_ambient._kernels import preint as K
 from pv_ambient._kernels._jit import driver, prange, scalar
 from pv_ambient._kernels.phase import HENYEY_GREENSTEIN, phase_eval, phase_sample
 from pv_ambient._kernels.rng import uniform
-from pv_ambient.phase import HenyeyGreenstein, Isotropic
+from pv_ambient.inputs.phase import HenyeyGreenstein, Isotropic
 
 HG = HenyeyGreenstein
 

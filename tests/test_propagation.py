@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 
 import pv_ambient as pa
-from pv_ambient._grid import Volume
-from pv_ambient.camera import Camera
-from pv_ambient.lights import DirectionalLight, PointLight
-from pv_ambient.propagation import make_light_grid, optical_depth, sigma_on_grid
-from pv_ambient.transfer import TransferFunction
+from pv_ambient.inputs.grid import Volume
+from pv_ambient.inputs.camera import Camera
+from pv_ambient.inputs.lights import DirectionalLight, PointLight
+from pv_ambient.stages.propagation import make_light_grid, optical_depth, sigma_on_grid
+from pv_ambient.inputs.transfer import TransferFunction
 
 N = 33
 SIGMA = 2.0
@@ -69,7 +69,7 @@ def test_heterogeneous_optical_depth_against_quadrature(light):
     X, Y, Z = np.meshgrid(k, k, k, indexing="ij")
     field = (1 + 3 * X + 2 * Y * Z).astype(np.float32)
     vol = Volume(field, spacing=(1 / (n - 1),) * 3)
-    from pv_ambient.transfer import _grid_optics
+    from pv_ambient.inputs.transfer import _grid_optics
 
     optics = _grid_optics(field, np.zeros(field.shape + (6,), np.float32))
     grid = make_light_grid(vol.geometry, 1.0)

@@ -28,8 +28,9 @@ import pv_ambient as pa
 from pv_ambient import datasets
 
 pv = pytest.importorskip("pyvista")
-from pv_ambient.pyvista_ext import (  # noqa: E402
+from pv_ambient.pyvista.plotter import (  # noqa: E402
     add_vtk_volume,
+    composite_over_geometry,
     display_to_linear,
     ray_distance_from_depth,
     texture_image,
@@ -120,7 +121,7 @@ def test_opaque_sphere_occludes_the_volume_like_vtk(cloud):
 
     def composite(ray_end):
         res = r.render(camera=CAMERA, window_size=SIZE, step=step, ray_end=ray_end)
-        return pa.pyvista_ext.composite_over_geometry(res, vol.geometry_image[..., :3], vol.geometry_image[..., 3])
+        return composite_over_geometry(res, vol.geometry_image[..., :3], vol.geometry_image[..., 3])
 
     # the same composite ignoring the depth: the volume behind the sphere shows through it
     d_none = np.abs(composite(None).to_uint8().astype(int) - vtk_img)
@@ -329,7 +330,7 @@ def _add_and_close(grid, scalars="other"):
 
 # -- progress bars and Ctrl-C ---------------------------------------------------------------------------
 def test_progress_bars_appear_on_stderr(capfd, tmp_path, monkeypatch):
-    from pv_ambient.preintegration import get_table
+    from pv_ambient.stages.preintegration import get_table
 
     monkeypatch.setenv("PV_AMBIENT_CACHE", str(tmp_path))
     get_table(0.41, (0.5, 0.6), quality="preview", cache=False, progress_bar=True)
@@ -388,7 +389,7 @@ def test_ctrl_c_between_tiles_and_batches_propagates_and_the_renderer_survives(m
     np.testing.assert_array_equal(r.render(window_size=(12, 8), model="path_traced", samples_per_pixel=4).radiance,
                                   ref_pt.radiance)
     # a table interrupted while it is being computed is not cached
-    from pv_ambient.preintegration import get_table
+    from pv_ambient.stages.preintegration import get_table
 
     monkeypatch.setenv("PV_AMBIENT_CACHE", str(tmp_path))
     with monkeypatch.context() as m:

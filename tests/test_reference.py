@@ -20,8 +20,8 @@ from scipy.ndimage import map_coordinates
 import pv_ambient as pa
 from pv_ambient._kernels import rng
 from pv_ambient._kernels.tracking import draw, free_flight_array, transmittance_array
-from pv_ambient.camera import Camera
-from pv_ambient.reference import path_trace
+from pv_ambient.inputs.camera import Camera
+from pv_ambient.stages.reference import path_trace
 
 # --- helpers -----------------------------------------------------------------------------------
 
@@ -446,7 +446,7 @@ def test_fast_against_simple_oracle_per_pixel_z():
 _THREAD_SCRIPT = r"""
 import sys, numpy as np, numba, pyvista as pv
 import pv_ambient as pa, datasets_synthetic as ds
-from pv_ambient.reference import path_trace
+from pv_ambient.stages.reference import path_trace
 assert numba.config.NUMBA_NUM_THREADS == int(sys.argv[2]), numba.config.NUMBA_NUM_THREADS
 vol = ds.cloud(n=16, seed=1)
 g = pv.ImageData(dimensions=vol.dimensions, spacing=vol.spacing, origin=vol.origin)

@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-import pv_ambient.sat as sat_mod
+import pv_ambient.stages.sat as sat_mod
 from pv_ambient._kernels import sat as K
-from pv_ambient.sat import BOX_EDGE_PER_RADIUS, box_half_edges, box_mean, box_sum, build_sat, mean_extinction
+from pv_ambient.stages.sat import BOX_EDGE_PER_RADIUS, box_half_edges, box_mean, box_sum, build_sat, mean_extinction
 
 SHAPES = [(7, 9, 11), (13, 5, 3), (1, 4, 2)]
 

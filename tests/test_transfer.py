@@ -5,8 +5,8 @@ import pyvista as pv
 from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
 from vtkmodules.vtkRenderingCore import vtkColorTransferFunction, vtkVolumeProperty
 
-from pv_ambient._grid import volume_from_image
-from pv_ambient.transfer import COL_COLOR, COL_SIGMA, MODE_GRID, TransferFunction, pyvista_default_unit_distance
+from pv_ambient.inputs.grid import volume_from_image
+from pv_ambient.inputs.transfer import COL_COLOR, COL_SIGMA, MODE_GRID, TransferFunction, pyvista_default_unit_distance
 
 
 @pytest.fixture

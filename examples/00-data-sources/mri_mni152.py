@@ -113,6 +113,6 @@ scattered = results["ambient_scattering"]
 white = float(np.percentile(scattered.radiance[scattered.alpha > 0.1].max(axis=-1), 99))
 displays = ({}, {"exposure": float(np.log2(0.7 / white)), "tonemap": "aces", "srgb": True})
 path = os.path.join(OUT, "mri_mni152.png")
-w, h = pa.pyvista_ext.show_panels(results.values(), ("emission-absorption", "ambient scattering"), path,
+w, h = pa.pyvista.show_panels(results.values(), ("emission-absorption", "ambient scattering"), path,
                                   display=displays, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

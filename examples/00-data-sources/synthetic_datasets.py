@@ -53,5 +53,5 @@ for name, grid in grids.items():
     results.append(res)
 # one labelled panel per volume, in VTK's display convention (no exposure, clipped)
 path = os.path.join(OUT, "synthetic_datasets.png")
-w, h = pa.pyvista_ext.show_panels(results, list(grids), path, font_size=6 if FAST else 12)
+w, h = pa.pyvista.show_panels(results, list(grids), path, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

@@ -40,6 +40,6 @@ for g in (-0.5, 0.0, 0.6):
     print(f"g = {g:+.1f}: mean radiance {res.radiance.mean():.4f}")
     results[f"g = {g:+.1f}"] = res
 path = os.path.join(OUT, "cloud_phase_sweep.png")
-w, h = pa.pyvista_ext.show_panels(results.values(), list(results), path, font_size=6 if FAST else 12,
+w, h = pa.pyvista.show_panels(results.values(), list(results), path, font_size=6 if FAST else 12,
                                   display={"exposure": 3.5, "tonemap": "reinhard", "srgb": True})
 print(f"saved {path} ({w}x{h})")

@@ -59,6 +59,6 @@ missing = pa.RenderResult(np.maximum(amb.radiance - ss.radiance, 0.0), amb.alpha
 white = float(np.percentile(amb.radiance[inside].max(axis=-1), 99))
 display = {"exposure": float(np.log2(0.5 / white)), "tonemap": "aces", "srgb": True}
 path = os.path.join(OUT, "directional_single_vs_ambient.png")
-w, h = pa.pyvista_ext.show_panels((ss, amb, missing), ("single", "ambient", "ambient - single"), path,
+w, h = pa.pyvista.show_panels((ss, amb, missing), ("single", "ambient", "ambient - single"), path,
                                   display=display, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

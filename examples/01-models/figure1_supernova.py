@@ -48,7 +48,7 @@ for m, res in results.items():
 # Side by side, each with its own exposure (the models compute different quantities; the lit
 # shell of AS is ~8× dimmer than the emission of EA, and the core around the light saturates).
 path = os.path.join(OUT, "figure1_supernova.png")
-w, h = pa.pyvista_ext.show_panels(results.values(), ("EA", "AO", "AS"), path, font_size=6 if FAST else 12,
+w, h = pa.pyvista.show_panels(results.values(), ("EA", "AO", "AS"), path, font_size=6 if FAST else 12,
                                   display=[{"exposure": exposure, "tonemap": "reinhard", "srgb": True}
                                            for exposure in (0.0, -2.5, 3.0)])
 print(f"saved {path} ({w}x{h})")

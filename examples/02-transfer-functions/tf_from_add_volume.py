@@ -81,7 +81,7 @@ for k, (res, label, display) in enumerate([
         (ea, "pv_ambient EA", {}),  # VTK's display convention: no exposure, no tone map
         (sc, "pv_ambient AS", {"exposure": exposure, "tonemap": "aces", "srgb": True})], start=1):
     pl.subplot(0, k)
-    pa.pyvista_ext.add_result_plane(pl, res, **display)
+    pa.pyvista.add_result_plane(pl, res, **display)
     pl.add_text(label, position=(4, SIZE[1] - 2 * font), font_size=font, color="white")
 image = pl.screenshot(return_img=True)
 vtk_panel = image[:, :SIZE[0]].astype(float)

@@ -68,6 +68,6 @@ print(f"superposition: max |both - (warm + cool)| = {gap:.1e} of the brightest p
 white = float(np.percentile(both[results["warm + cool"].alpha > 0.1].max(axis=-1), 99))
 display = {"exposure": float(np.log2(1.0 / white)), "tonemap": "aces", "srgb": True}
 path = os.path.join(OUT, "ct_two_coloured_lights.png")
-w, h = pa.pyvista_ext.show_panels(results.values(), list(results), path, display=display,
+w, h = pa.pyvista.show_panels(results.values(), list(results), path, display=display,
                                   font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")

@@ -76,7 +76,7 @@ print(f"ambient scattering bias of the mean: {100 * bias:+.1f} % "
 white = float(np.percentile(ambient.radiance[ambient.alpha > 0.1].max(axis=-1), 99))
 display = {"exposure": float(np.log2(0.5 / white)), "tonemap": "aces", "srgb": True}
 path = os.path.join(OUT, "ambient_vs_path_traced.png")
-w, h = pa.pyvista_ext.show_panels([ambient, *traced.values()], ["ambient"] + [f"PT {spp} spp" for spp in traced],
+w, h = pa.pyvista.show_panels([ambient, *traced.values()], ["ambient"] + [f"PT {spp} spp" for spp in traced],
                                   path, display=display, font_size=6 if FAST else 12)
 print(f"saved {path} ({w}x{h})")
 

@@ -13,7 +13,7 @@ INF = math.inf
 def camera_ray(cam, i, j, width, height):
     """World origin and unit direction of the ray through the centre of pixel (i, j).
 
-    ``cam`` is :meth:`pv_ambient.camera.Camera.params`; row j counts from the top.
+    ``cam`` is :meth:`pv_ambient.inputs.camera.Camera.params`; row j counts from the top.
     """
     su = 2.0 * (i + 0.5) / width - 1.0
     sv = 1.0 - 2.0 * (j + 0.5) / height

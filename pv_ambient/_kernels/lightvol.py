@@ -252,7 +252,7 @@ def tube_density(ball, lo, step, radius, F_diff, a_nodes, tau_lo_log, tau_dlog, 
 
     ``ball`` holds (σ̄, ā rgb) at data samples; ``out`` is (m0, m1, m2, 3). Integrated along the
     light's rays by the same sweep as σt, it gives the tube front's optical depth (see
-    :mod:`pv_ambient.propagation`).
+    :mod:`pv_ambient.stages.propagation`).
     """
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
     inv2r = 0.5 / radius

@@ -1,6 +1,6 @@
 """Optical properties at a point: interpolate, then classify (scalar kernels).
 
-Two modes (``pv_ambient.transfer.Optics``): ``MODE_LUT`` interpolates the scalar field
+Two modes (``pv_ambient.inputs.transfer.Optics``): ``MODE_LUT`` interpolates the scalar field
 trilinearly and looks it up in the table (columns σt, albedo rgb, emission rgb, colour rgb) with
 linear interpolation between entries (post-classification, as VTK); ``MODE_GRID`` interpolates σt
 from ``field`` and albedo/emission from ``aux`` (physical arrays, or a baked TF).

@@ -8,7 +8,7 @@ Schlick's ``k > 0``) is forward scattering: the peak sits at ``cos θ = 1``.
 Kinds are integers (module constants) so that a caller dispatches on a number, never on a
 function object (functions passed as arguments defeat Numba's caching). Every function is a
 scalar kernel (DESIGN §5b): scalars in, scalars out, no allocation, uniforms passed in. Kernels
-never validate; :mod:`pv_ambient.phase` rejects ``|g| >= 1`` at construction. The two
+never validate; :mod:`pv_ambient.inputs.phase` rejects ``|g| >= 1`` at construction. The two
 ``*_array`` drivers at the end are thin serial loops for the Python API and the tests.
 
 Sampling is exact (inverse CDF in closed form for every kind), so the pdf of a sampled
@@ -146,7 +146,7 @@ def phase_sample(kind, g, u1, u2, wx, wy, wz):
     return dx, dy, dz, phase_eval(kind, g, mu)
 
 
-# --- thin serial drivers for the Python API (pv_ambient.phase) and tests -------------------
+# --- thin serial drivers for the Python API (pv_ambient.inputs.phase) and tests -------------------
 
 
 @driver(parallel=False)

@@ -13,7 +13,7 @@ corner function is a tensor product, that sum factors into one 1-D difference st
 (:func:`axis_stencil`), which :func:`box_sum` and :func:`box_mean` contract with ``S``.
 
 Scalar functions here allocate nothing and never validate (the Python layer,
-:mod:`pv_ambient.sat`, does); drivers are thin ``prange`` loops.
+:mod:`pv_ambient.stages.sat`, does); drivers are thin ``prange`` loops.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import check_vector
+from .validation import check_vector
 
 _RESAMPLE_HINT = (
     "pv_ambient renders pyvista.ImageData (uniform grids). Resample your data onto one first, "
@@ -209,7 +209,7 @@ class Volume:
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient._grid import Volume
+    >>> from pv_ambient.inputs.grid import Volume
     >>> vol = Volume(np.zeros((4, 5, 6), np.float32), spacing=(0.5, 0.5, 0.5))
     >>> vol.geometry.shape, vol.active
     ((4, 5, 6), 'values')

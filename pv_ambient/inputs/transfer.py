@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import check_real, check_rgb
+from .validation import check_real, check_rgb
 
 ALPHA_MAX = 1.0 - 1e-6
 MIN_LUT = 1024
@@ -323,8 +323,8 @@ class TransferFunction:
 
     # -- resolution --------------------------------------------------------------------------
     def resolve(self, grid, *, scalars=None, component=None, nan_policy="raise", preference="point") -> Optics:
-        """The :class:`Optics` of ``grid`` (a pyvista.ImageData or a :class:`~pv_ambient._grid.Volume`)."""
-        from ._grid import Volume, select_scalars, volume_from_image
+        """The :class:`Optics` of ``grid`` (a pyvista.ImageData or a :class:`~pv_ambient.inputs.grid.Volume`)."""
+        from .grid import Volume, select_scalars, volume_from_image
 
         volume = grid if isinstance(grid, Volume) else volume_from_image(grid, preference=preference)
         if nan_policy not in ("raise", "vacuum"):

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import check_choice, check_real
+from ..inputs.validation import check_choice, check_real
 
 TONEMAPS = ("clip", "reinhard", "aces")
 
@@ -40,7 +40,7 @@ class RenderResult:
         ``(H, W, 3)`` float32 linear RGB radiance, background included, not premultiplied.
     alpha : numpy.ndarray
         ``(H, W)`` float32, ``1 − transmittance`` along each pixel's ray.
-    camera : pv_ambient.camera.Camera
+    camera : pv_ambient.inputs.camera.Camera
         The camera the image was rendered with.
     metadata : dict
         Model, timings (s), quality knobs, backend and the like.
@@ -50,7 +50,7 @@ class RenderResult:
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.result import RenderResult
+    >>> from pv_ambient.rendering.result import RenderResult
     >>> res = RenderResult(np.full((2, 3, 3), 0.5, np.float32), np.ones((2, 3), np.float32), None)
     >>> res.to_uint8()[0, 0].tolist()
     [128, 128, 128]

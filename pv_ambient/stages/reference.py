@@ -23,10 +23,10 @@ import time
 
 import numpy as np
 
-from ._validation import check_int, check_real, check_rgb
-from .backend import resolve_backend
-from .lights import pack_lights
-from .result import RenderResult
+from ..inputs.validation import check_int, check_real, check_rgb
+from ..backend import resolve_backend
+from ..inputs.lights import pack_lights
+from ..rendering.result import RenderResult
 
 #: Majorant block size (samples per axis) of the trackers.
 MAJORANT_BLOCK = 8
@@ -115,15 +115,15 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
     --------
     >>> import pv_ambient
     >>> from pv_ambient import datasets
-    >>> from pv_ambient.reference import path_trace
+    >>> from pv_ambient.stages.reference import path_trace
     >>> r = pv_ambient.Renderer(datasets.cloud(n=16), lights=[pv_ambient.PointLight((2, 2, 2), 5.0)])
     >>> res = path_trace(r, window_size=(8, 6), samples_per_pixel=4)
     >>> res.radiance.shape, res.std_error.shape, res.metadata["spp"]
     ((6, 8, 3), (6, 8, 3), 4)
     """
-    from ._kernels.pathtrace import pathtrace_image
-    from .camera import as_camera
-    from .phase import as_phase
+    from .._kernels.pathtrace import pathtrace_image
+    from ..inputs.camera import as_camera
+    from ..inputs.phase import as_phase
 
     cam, size = as_camera(camera, window_size=window_size, bounds=renderer.bounds)
     spp = check_int(samples_per_pixel, "samples_per_pixel", lo=1)
@@ -162,7 +162,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         bar = None
         sums = None
         if backend == "cuda":
-            from . import backend as bk
+            from .. import backend as bk
 
             bk.check_fits(renderer.device_cache, [a for a in args if isinstance(a, np.ndarray)],
                           sum_rad.nbytes + sum_sq.nbytes + sum_hit.nbytes)

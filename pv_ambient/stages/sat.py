@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from ._validation import _show, check_real, check_vector
+from ..inputs.validation import _show, check_real, check_vector
 
 __all__ = ["BOX_EDGE_PER_RADIUS", "build_sat", "box_sum", "box_mean", "box_half_edges", "mean_extinction"]
 
@@ -87,12 +87,12 @@ def build_sat(sigma) -> np.ndarray:
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.sat import build_sat
+    >>> from pv_ambient.stages.sat import build_sat
     >>> S = build_sat(np.ones((2, 3, 4), np.float32))
     >>> S.shape, S.dtype, float(S[-1, -1, -1]), float(S[1, 2, 2])
     ((3, 4, 5), dtype('float64'), 24.0, 4.0)
     """
-    from ._kernels.sat import build_sat_into
+    from .._kernels.sat import build_sat_into
 
     arr = _check_sigma(sigma, nonneg=False)
     S = np.zeros(tuple(n + 1 for n in arr.shape), np.float64)
@@ -120,7 +120,7 @@ def box_sum(sat, lo, hi) -> float:
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.sat import build_sat, box_sum
+    >>> from pv_ambient.stages.sat import build_sat, box_sum
     >>> S = build_sat(np.full((4, 4, 4), 2.0))
     >>> box_sum(S, (-0.5, -0.5, -0.5), (1.5, 1.5, 1.5))     # 2×2×2 whole cells
     16.0
@@ -129,7 +129,7 @@ def box_sum(sat, lo, hi) -> float:
     >>> box_sum(S, (-9.0, 0.0, 0.0), (0.0, 1.0, 1.0))       # half of it lies in vacuum
     1.0
     """
-    from ._kernels.sat import box_sum as _box_sum
+    from .._kernels.sat import box_sum as _box_sum
 
     S = _check_sat(sat)
     lo = check_vector(lo, "lo", 3)
@@ -159,14 +159,14 @@ def box_mean(sat, center, half_edges) -> float:
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.sat import build_sat, box_mean
+    >>> from pv_ambient.stages.sat import build_sat, box_mean
     >>> S = build_sat(np.full((5, 5, 5), 3.0))
     >>> box_mean(S, (2, 2, 2), (1.5, 1.5, 1.5))
     3.0
     >>> box_mean(S, (0, 2, 2), (1.0, 1.0, 1.0))             # a quarter of the box is outside
     2.25
     """
-    from ._kernels.sat import box_mean as _box_mean
+    from .._kernels.sat import box_mean as _box_mean
 
     S = _check_sat(sat)
     c = check_vector(center, "center", 3)
@@ -180,7 +180,7 @@ def box_half_edges(spacing, radius) -> np.ndarray:
 
     Examples
     --------
-    >>> from pv_ambient.sat import box_half_edges
+    >>> from pv_ambient.stages.sat import box_half_edges
     >>> box_half_edges((1.0, 0.5, 2.0), 1.0).round(3).tolist()
     [0.806, 1.612, 0.403]
     """
@@ -221,7 +221,7 @@ def mean_extinction(sigma, spacing, radius) -> np.ndarray:
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.sat import mean_extinction
+    >>> from pv_ambient.stages.sat import mean_extinction
     >>> sigma = np.full((9, 9, 9), 2.0, np.float32)
     >>> m = mean_extinction(sigma, (1.0, 1.0, 1.0), 2.0)
     >>> m.dtype, float(m[4, 4, 4])                     # box well inside: σ̄ = σ
@@ -229,7 +229,7 @@ def mean_extinction(sigma, spacing, radius) -> np.ndarray:
     >>> bool(m[0, 0, 0] < m[0, 4, 4] < m[4, 4, 4])     # less medium near faces and corners
     True
     """
-    from ._kernels.sat import build_sat_into, mean_extinction_grid
+    from .._kernels.sat import build_sat_into, mean_extinction_grid
 
     arr = _check_sigma(sigma)
     h = _check_spacing(spacing)

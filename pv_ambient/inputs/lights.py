@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import check_rgb, check_vector
+from .validation import check_rgb, check_vector
 
 POINT, DIRECTIONAL = 0, 1
 
@@ -30,7 +30,7 @@ class PointLight:
 
     Examples
     --------
-    >>> from pv_ambient.lights import PointLight
+    >>> from pv_ambient.inputs.lights import PointLight
     >>> PointLight((0, 0, 0), intensity=(1.0, 0.5, 0.2)).intensity
     (1.0, 0.5, 0.2)
     """

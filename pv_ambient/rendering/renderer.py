@@ -12,13 +12,13 @@ import warnings
 
 import numpy as np
 
-from ._grid import Volume, volume_from_image
-from ._validation import check_choice, check_int, check_real, check_rgb
-from .backend import resolve_backend
-from .camera import as_camera
-from .lights import as_lights, pack_lights
+from ..inputs.grid import Volume, volume_from_image
+from ..inputs.validation import check_choice, check_int, check_real, check_rgb
+from ..backend import resolve_backend
+from ..inputs.camera import as_camera
+from ..inputs.lights import as_lights, pack_lights
 from .result import RenderResult
-from .transfer import as_transfer_function
+from ..inputs.transfer import as_transfer_function
 
 MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering", "path_traced",
           "diffusion")
@@ -81,7 +81,7 @@ class Renderer:
 
     Parameters
     ----------
-    grid : pyvista.ImageData, vtkImageData or pv_ambient._grid.Volume
+    grid : pyvista.ImageData, vtkImageData or pv_ambient.inputs.grid.Volume
         The volume. Never modified.
     transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
         How scalars become optical properties; PyVista's defaults when None.
@@ -93,7 +93,7 @@ class Renderer:
     preference : {"point", "cell"}, default: "point"
         Which data to use when both exist.
     nan_policy : {"raise", "vacuum"}, default: "raise"
-        Non-finite scalars are an error, or empty space (see :mod:`pv_ambient.transfer`).
+        Non-finite scalars are an error, or empty space (see :mod:`pv_ambient.inputs.transfer`).
 
     Examples
     --------
@@ -107,7 +107,7 @@ class Renderer:
 
     def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=(),
                  preference="point", nan_policy="raise", backend="auto"):
-        from .backend import BACKENDS
+        from ..backend import BACKENDS
 
         check_choice(preference, "preference", ("point", "cell"))
         check_choice(backend, "backend", BACKENDS)
@@ -127,7 +127,7 @@ class Renderer:
     def device_cache(self):
         """The :class:`pv_ambient.backend.DeviceCache` of the CUDA backend (created on first use)."""
         if self._device is None:
-            from .backend import DeviceCache
+            from ..backend import DeviceCache
 
             self._device = DeviceCache()
         return self._device
@@ -152,7 +152,7 @@ class Renderer:
         """Upper bound of σt per ``block``³ samples (cached)."""
         key = ("majorant", block)
         if key not in self._cache:
-            from ._kernels.majorant import build_majorant
+            from .._kernels.majorant import build_majorant
 
             o = self.optics
             shape = tuple(max(1, -(-(n - 1) // block)) for n in o.field.shape)
@@ -164,7 +164,7 @@ class Renderer:
     # -- cached stages ---------------------------------------------------------------------
     def light_grid(self, light_resolution=None):
         """The light grid for a resolution factor (DESIGN §4.3 default when None)."""
-        from .propagation import default_factor, make_light_grid
+        from ..stages.propagation import default_factor, make_light_grid
 
         f = default_factor(self.optics, self.geometry) if light_resolution is None else light_resolution
         key = ("light_grid", float(f))
@@ -173,7 +173,7 @@ class Renderer:
         return self._cache[key]
 
     def sigma_on_light_grid(self, grid):
-        from .propagation import sigma_on_grid
+        from ..stages.propagation import sigma_on_grid
 
         key = ("sigma_l", grid.key())
         if key not in self._cache:
@@ -182,7 +182,7 @@ class Renderer:
 
     def optical_depth(self, light, grid):
         """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light)."""
-        from .propagation import optical_depth
+        from ..stages.propagation import optical_depth
 
         key = ("tau", light, grid.key())
         if key not in self._cache:
@@ -226,7 +226,7 @@ class Renderer:
         ā = mean(σs)/σ̄ per channel, at every data sample: float32 (nx, ny, nz, 4)."""
         key = ("ball", float(radius))
         if key not in self._cache:
-            from .sat import mean_extinction
+            from ..stages.sat import mean_extinction
 
             sig = self.optics.sigma_grid()
             alb = self.optics.albedo_grid()
@@ -254,7 +254,7 @@ class Renderer:
 
     def table(self, phase, radius, quality="balanced", progress_bar=False):
         """The preintegrated D/F slice for ``phase`` and the albedo range the scene needs (cached)."""
-        from .preintegration import albedo_nodes_for, get_table
+        from ..stages.preintegration import albedo_nodes_for, get_table
 
         lo, hi = self.albedo_range(radius)
         # keyed on the albedo nodes the range needs: nearby ranges share one slice
@@ -267,7 +267,7 @@ class Renderer:
 
     def front_depth(self, light, grid, radius, table):
         """Tube-mode front optical depth per channel, (m0, m1, m2, 3) float32 (cached per light, r, table)."""
-        from .propagation import optical_depth, tube_extinction
+        from ..stages.propagation import optical_depth, tube_extinction
 
         key = ("front", light, grid.key(), float(radius), id(table))
         if key not in self._cache:
@@ -312,7 +312,7 @@ class Renderer:
         two lights, 64³: 0.66× the per-light time for plain diffusion, identical to 1e-8; 0.45×
         for flux-limited, which is not linear: 1.7 % different), but every relight would then
         re-solve all lights."""
-        from .diffusion import solve_for_light
+        from ..stages.diffusion import solve_for_light
 
         g = float(phase.mean_cosine)
         total = None
@@ -368,7 +368,7 @@ class Renderer:
         model : str, default: "emission_absorption"
             ``"emission_absorption"``, ``"ambient_occlusion"``, ``"single_scattering"``,
             ``"ambient_scattering"``, ``"path_traced"`` (the Monte Carlo reference,
-            :func:`pv_ambient.reference.path_trace`; options ``samples_per_pixel``,
+            :func:`pv_ambient.stages.reference.path_trace`; options ``samples_per_pixel``,
             ``target_error``, ``max_depth``) or ``"auto"``. ``auto`` picks the model the trade
             benchmark measured best for the quality preset, and builds nothing the scene does
             not need, by these rules (each tested):
@@ -449,8 +449,8 @@ class Renderer:
         A point light's fall-off ``I/d²`` is clamped at ``d = step/4`` (a sample closer than a
         quarter step to the light cannot resolve the singularity).
         """
-        from .phase import as_phase
-        from .propagation import default_factor
+        from ..inputs.phase import as_phase
+        from ..stages.propagation import default_factor
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
         check_choice(model, "model", ALL_MODELS)
@@ -488,7 +488,7 @@ class Renderer:
                 raise ValueError(f"time_budget chooses the model: use it with model='auto', not {model!r}")
             grid0 = self.light_grid(light_resolution)
             if self.resolve_model("auto", grid0, quality) != "single_scattering":
-                from .denoise import available
+                from ..stages.denoise import available
 
                 model = "path_traced"
                 model_options["time_limit"] = budget
@@ -570,13 +570,13 @@ class Renderer:
         return RenderResult(radiance=rad, alpha=alpha, camera=cam, metadata=meta)
 
     def _path_trace(self, cam, size, ph, step, seed, bg, progress_bar, options, backend="cpu"):
-        from .reference import path_trace
+        from ..stages.reference import path_trace
 
         denoise = options.get("denoise", False)
         if denoise not in (True, False):
             raise TypeError(f"denoise must be True or False, got {denoise!r}")
         if denoise:
-            from .denoise import available, denoise_radiance
+            from ..stages.denoise import available, denoise_radiance
 
             if not available():
                 denoise_radiance(None)  # raises the ImportError that names the extra
@@ -592,10 +592,10 @@ class Renderer:
         res.metadata["denoised"] = bool(denoise)
         if denoise:
             t = time.perf_counter()
-            from .denoise import albedo_guide
+            from ..stages.denoise import albedo_guide
 
             # albedo guide (first-collision albedo × coverage, noise-free) and mean preservation:
-            # measured in pv_ambient.denoise; std_error stays the un-denoised one
+            # measured in pv_ambient.stages.denoise; std_error stays the un-denoised one
             res.radiance = denoise_radiance(res.radiance, albedo=albedo_guide(self, cam, size, step=step))
             res.metadata["denoise_guide"] = "albedo"
             res.metadata["time_denoise"] = time.perf_counter() - t
@@ -618,7 +618,7 @@ class Renderer:
 
     def _run_cuda(self, head, tail, rad, alpha, asked):
         """The ray cast on the GPU; returns the backend that ran ("cpu" after a fallback)."""
-        from . import backend as bk
+        from .. import backend as bk
 
         arrays = [a for a in head + tail if isinstance(a, np.ndarray)]
         try:
@@ -632,7 +632,7 @@ class Renderer:
         return "cuda"
 
     def _run_tiles(self, head, tail, rad, alpha, progress_bar, name):
-        from ._kernels.raycast import raycast_image
+        from .._kernels.raycast import raycast_image
 
         tiles = _tiles(rad.shape[0], 16 if progress_bar else 4)  # Ctrl-C is seen between tiles
         bar = None

@@ -111,7 +111,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import check_choice, check_int, check_real
+from ..inputs.validation import check_choice, check_int, check_real
 
 __all__ = [
     "DiffusionSolution",
@@ -302,7 +302,7 @@ def first_collision_source(sigma_t, albedo, g, E_d, omega):
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.diffusion import first_collision_source
+    >>> from pv_ambient.stages.diffusion import first_collision_source
     >>> s = np.full((2, 2, 2), 2.0); a = np.full((2, 2, 2, 3), 0.5); E = np.ones((2, 2, 2, 3))
     >>> w = np.zeros((2, 2, 2, 3)); w[..., 2] = 1.0
     >>> Q0, Q1 = first_collision_source(s, a, 0.5, E, w)
@@ -367,8 +367,8 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     omega : numpy.ndarray
         float64 (nx, ny, nz, 3): the E-weighted mean propagation direction (world).
     """
-    from ._kernels.diffusion import irradiance_point, transmittance_cv
-    from .lights import DirectionalLight, PointLight
+    from .._kernels.diffusion import irradiance_point, transmittance_cv
+    from ..inputs.lights import DirectionalLight, PointLight
 
     shape = tuple(int(n) for n in geometry.shape)
     subsamples = check_int(subsamples, "subsamples", lo=1)
@@ -453,7 +453,7 @@ def _boundary(grid, axis, side):
 def _system(grid, sigma_a, D, Q0, Q1):
     """Couplings, absorption/boundary diagonal and right-hand side of one channel (float64).
     Interior faces: ``_kernels.diffusion.assemble_faces``; box faces here."""
-    from ._kernels.diffusion import assemble_faces
+    from .._kernels.diffusion import assemble_faces
 
     shape = grid.shape
     w = [np.empty(shape) for _ in range(3)]
@@ -541,7 +541,7 @@ def _power(grid, phi, sigma_a, D, Q0, Q1):
 # ---------------------------------------------------------------------------------------------
 class _Level:
     def __init__(self, w, c):
-        from ._kernels.diffusion import make_diag
+        from .._kernels.diffusion import make_diag
 
         self.wx, self.wy, self.wz = (np.ascontiguousarray(x, dtype=np.float64) for x in w)
         self.c = np.ascontiguousarray(c, dtype=np.float64)
@@ -574,7 +574,7 @@ def _dense(lv):
 
 def _hierarchy(w, c, spacing, coarse_nodes=COARSE_NODES):
     """Aggregation multigrid levels, finest first; the last carries a dense inverse."""
-    from ._kernels.diffusion import coarsen
+    from .._kernels.diffusion import coarsen
 
     levels = [_Level(w, c)]
     h = np.asarray(spacing, np.float64).copy()
@@ -620,7 +620,7 @@ def _one_thread_if(flag):
 
 def _vcycle(levels, l):
     """levels[l].x ≈ A_l⁻¹ levels[l].b by one symmetric V-cycle."""
-    from ._kernels.diffusion import gs_color, gs_first, prolong_add, residual_restrict
+    from .._kernels.diffusion import gs_color, gs_first, prolong_add, residual_restrict
 
     lv = levels[l]
     if lv.inv is not None:
@@ -647,7 +647,7 @@ def _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict):
 
 def _pcg(levels, b, x0, tol, maxiter, preconditioner, bar=None):
     """Solve A x = b (A = levels[0]); returns x, iterations, relative residual."""
-    from ._kernels.diffusion import cg_direction, cg_step, dot_parts, jacobi, matvec_dot, residual
+    from .._kernels.diffusion import cg_direction, cg_step, dot_parts, jacobi, matvec_dot, residual
 
     lv = levels[0]
     ops = lv.ops
@@ -705,7 +705,7 @@ def _flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
     """Levermore–Pomraning D = λ(R)/σt' at the nodes, R = |∇φ − 3Q1|/(σt' φ), clipped to
     [d_min, d_max] (d_max: the vacuum floor's D); ∇φ as ``numpy.gradient`` (central differences,
     one-sided on the box faces). The kernel: ``_kernels.diffusion.limiter_coefficients``."""
-    from ._kernels.diffusion import limiter_coefficients
+    from .._kernels.diffusion import limiter_coefficients
 
     out = np.empty(grid.shape)
     q1 = _NO_Q1 if Q1 is None else np.ascontiguousarray(Q1, np.float64)
@@ -866,7 +866,7 @@ def solve_diffusion(sigma_t, albedo, g, spacing, Q0, Q1=None, *, flux_limited=Fa
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.diffusion import solve_diffusion
+    >>> from pv_ambient.stages.diffusion import solve_diffusion
     >>> sig = np.full((9, 9, 9), 4.0); alb = np.full((9, 9, 9), 0.9)
     >>> Q0 = np.zeros((9, 9, 9)); Q0[4, 4, 4] = 1.0
     >>> sol = solve_diffusion(sig, alb, 0.0, (0.25, 0.25, 0.25), Q0)

@@ -35,7 +35,7 @@ Two steps around the filter, both scene-independent:
   ``denoise_radiance(res.radiance, albedo=albedo_guide(renderer, camera, window_size))``.
 
 >>> import numpy as np
->>> from pv_ambient.denoise import available, preserve_mean
+>>> from pv_ambient.stages.denoise import available, preserve_mean
 >>> isinstance(available(), bool)
 True
 >>> noisy = np.zeros((2, 2, 3)); noisy[0, 0] = 4.0
@@ -124,7 +124,7 @@ def albedo_guide(renderer, camera, window_size, *, step=None) -> np.ndarray:
     import copy
     import dataclasses
 
-    from .transfer import COL_ALBEDO, COL_COLOR, MODE_GRID
+    from ..inputs.transfer import COL_ALBEDO, COL_COLOR, MODE_GRID
 
     o = renderer.optics
     if o.mode == MODE_GRID:  # physical TF: aux = albedo rgb, emission rgb; EA colour = emission

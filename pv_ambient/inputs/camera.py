@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import check_real, check_vector, check_window_size
+from .validation import check_real, check_vector, check_window_size
 
 #: Index of each camera parameter in the float64 array handed to kernels.
 CAM_POS, CAM_FWD, CAM_RIGHT, CAM_UP, CAM_TAN, CAM_ASPECT, CAM_PARALLEL, CAM_SCALE = 0, 3, 6, 9, 12, 13, 14, 15
@@ -42,7 +42,7 @@ class Camera:
 
     Examples
     --------
-    >>> from pv_ambient.camera import Camera
+    >>> from pv_ambient.inputs.camera import Camera
     >>> cam = Camera(position=(0, -4, 0), focal_point=(0, 0, 0), view_up=(0, 0, 1))
     >>> cam.project([[0.0, 0.0, 0.0]], (64, 48)).round(3).tolist()
     [[32.0, 24.0]]

@@ -15,11 +15,11 @@ from collections.abc import Mapping
 import numpy as np
 import pyvista as pv
 
-from ._validation import check_choice, check_int, check_real, check_rgb, check_window_size
-from .camera import Camera, as_camera
-from .render import Renderer
-from .result import TONEMAPS, RenderResult, srgb_encode, tonemap_values
-from .transfer import MODE_GRID, as_transfer_function
+from ..inputs.validation import check_choice, check_int, check_real, check_rgb, check_window_size
+from ..inputs.camera import Camera, as_camera
+from ..rendering.renderer import Renderer
+from ..rendering.result import TONEMAPS, RenderResult, srgb_encode, tonemap_values
+from ..inputs.transfer import MODE_GRID, as_transfer_function
 
 MODEL_TITLES = {
     "emission_absorption": "pv_ambient: emission-absorption",
@@ -137,7 +137,7 @@ def show_panels(results, labels, path, *, display=None, font_size=12, off_screen
     >>> import os, tempfile
     >>> import numpy as np
     >>> import pyvista as pv
-    >>> from pv_ambient.pyvista_ext import show_panels
+    >>> from pv_ambient.pyvista.plotter import show_panels
     >>> grid = pv.ImageData(dimensions=(8, 8, 8))
     >>> grid["density"] = np.linspace(0, 1, grid.n_points)
     >>> res = grid.ambient.render(window_size=(32, 24))
@@ -202,7 +202,7 @@ def display_to_linear(values, *, exposure=0.0, tonemap="clip", srgb=False):
 
     Examples
     --------
-    >>> from pv_ambient.pyvista_ext import display_to_linear
+    >>> from pv_ambient.pyvista.plotter import display_to_linear
     >>> display_to_linear([0.0, 0.5, 1.0]).tolist()
     [0.0, 0.5, 1.0]
     >>> round(float(display_to_linear(0.5, tonemap="reinhard", exposure=1.0)), 6)
@@ -275,8 +275,8 @@ def composite_over_geometry(volume, colour, coverage, *, background=(0.0, 0.0, 0
     Examples
     --------
     >>> import numpy as np
-    >>> from pv_ambient.result import RenderResult
-    >>> from pv_ambient.pyvista_ext import composite_over_geometry
+    >>> from pv_ambient.rendering.result import RenderResult
+    >>> from pv_ambient.pyvista.plotter import composite_over_geometry
     >>> vol = RenderResult(np.full((1, 2, 3), 0.25, np.float32), np.full((1, 2), 0.5, np.float32), None)
     >>> geometry = np.array([[[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]])   # red surface | nothing
     >>> out = composite_over_geometry(vol, geometry, np.array([[1.0, 0.0]]), background=(0, 0, 1))
@@ -326,7 +326,7 @@ def ray_distance_from_depth(zbuffer, near, far, camera, window_size):
     --------
     >>> import numpy as np
     >>> from pv_ambient import Camera
-    >>> from pv_ambient.pyvista_ext import ray_distance_from_depth
+    >>> from pv_ambient.pyvista.plotter import ray_distance_from_depth
     >>> cam = Camera((0, -4, 0), (0, 0, 0), (0, 0, 1))
     >>> near, far = 2.0, 6.0
     >>> [ray_distance_from_depth([[z]], near, far, cam, (1, 1)).item() for z in (0.0, 0.5, 1.0)]
@@ -491,7 +491,7 @@ def texture_image(texture):
     Examples
     --------
     >>> import numpy as np, pyvista as pv
-    >>> from pv_ambient.pyvista_ext import texture_image
+    >>> from pv_ambient.pyvista.plotter import texture_image
     >>> img = np.arange(24, dtype=np.uint8).reshape(2, 4, 3)
     >>> bool((texture_image(pv.Texture(img)) == img).all())
     True
@@ -687,7 +687,7 @@ class AmbientVolume:
         return self._accumulate(cam, size)
 
     def _accumulate(self, cam, size):
-        from .reference import _moments, relative_error
+        from ..stages.reference import _moments, relative_error
 
         k = 0 if self._sums is None else self._sums["passes"]
         done = 0 if self._sums is None else self._sums["n"]
@@ -1039,7 +1039,7 @@ class AmbientAccessor:
 
     def render(self, **kwargs):
         """:func:`pv_ambient.render` on this grid (keyword-only options)."""
-        from .render import render
+        from ..rendering.renderer import render
 
         return render(self._grid, **kwargs)
 

@@ -22,7 +22,7 @@ from numbers import Real
 
 import numpy as np
 
-from ._kernels import phase as _k
+from .._kernels import phase as _k
 
 __all__ = [
     "PhaseFunction",
@@ -114,7 +114,7 @@ class PhaseFunction:
 
         Examples
         --------
-        >>> from pv_ambient.phase import HenyeyGreenstein
+        >>> from pv_ambient.inputs.phase import HenyeyGreenstein
         >>> hg = HenyeyGreenstein(0.6)
         >>> round(hg.eval(1.0), 6)  # (1 + g) / (4π (1 − g)²)
         0.795775
@@ -139,7 +139,7 @@ class PhaseFunction:
 
         Examples
         --------
-        >>> from pv_ambient.phase import Rayleigh
+        >>> from pv_ambient.inputs.phase import Rayleigh
         >>> Rayleigh().pdf(0.0) == Rayleigh().eval(0.0)
         True
         """
@@ -150,7 +150,7 @@ class PhaseFunction:
 
         Examples
         --------
-        >>> from pv_ambient.phase import Isotropic
+        >>> from pv_ambient.inputs.phase import Isotropic
         >>> Isotropic().sample_cos([0.0, 0.5, 1.0])
         array([-1.,  0.,  1.])
         """
@@ -181,7 +181,7 @@ class PhaseFunction:
         Examples
         --------
         >>> import numpy as np
-        >>> from pv_ambient.phase import HenyeyGreenstein
+        >>> from pv_ambient.inputs.phase import HenyeyGreenstein
         >>> rng = np.random.default_rng(0)
         >>> d, pdf = HenyeyGreenstein(0.8).sample(rng.random(1000), rng.random(1000), [0, 0, 1])
         >>> d.shape, pdf.shape
@@ -223,7 +223,7 @@ class PhaseFunction:
 
         Examples
         --------
-        >>> from pv_ambient.phase import Schlick, as_phase
+        >>> from pv_ambient.inputs.phase import Schlick, as_phase
         >>> Schlick(0.3).to_dict()
         {'kind': 'schlick', 'g': 0.3}
         >>> as_phase(Schlick(0.3).to_dict()) == Schlick(0.3)
@@ -248,7 +248,7 @@ class Isotropic(PhaseFunction):
 
     Examples
     --------
-    >>> from pv_ambient.phase import Isotropic
+    >>> from pv_ambient.inputs.phase import Isotropic
     >>> p = Isotropic()
     >>> p, p.kind, p.g, p.mean_cosine
     (Isotropic(), 0, 0.0, 0.0)
@@ -266,7 +266,7 @@ class Rayleigh(PhaseFunction):
 
     Examples
     --------
-    >>> from pv_ambient.phase import Rayleigh
+    >>> from pv_ambient.inputs.phase import Rayleigh
     >>> p = Rayleigh()
     >>> round(p.eval(1.0) / p.eval(0.0), 12)
     2.0
@@ -295,7 +295,7 @@ class HenyeyGreenstein(PhaseFunction):
 
     Examples
     --------
-    >>> from pv_ambient.phase import HenyeyGreenstein
+    >>> from pv_ambient.inputs.phase import HenyeyGreenstein
     >>> hg = HenyeyGreenstein(0.6)
     >>> hg, hg.mean_cosine
     (HenyeyGreenstein(g=0.6), 0.6)
@@ -347,7 +347,7 @@ class Schlick(PhaseFunction):
 
     Examples
     --------
-    >>> from pv_ambient.phase import Schlick
+    >>> from pv_ambient.inputs.phase import Schlick
     >>> s = Schlick(0.5)
     >>> round(s.k, 6), round(s.mean_cosine, 4)
     (0.70625, 0.532)
@@ -414,7 +414,7 @@ def as_phase(spec=None) -> PhaseFunction:
 
     Examples
     --------
-    >>> from pv_ambient.phase import as_phase
+    >>> from pv_ambient.inputs.phase import as_phase
     >>> as_phase(None)
     Isotropic()
     >>> as_phase(0.6)

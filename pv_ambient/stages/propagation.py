@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lights import DirectionalLight, PointLight
+from ..inputs.lights import DirectionalLight, PointLight
 
 MAX_NODES = 2 ** 25  # 32 M nodes = 128 MB of float32 per light
 
@@ -77,7 +77,7 @@ def make_light_grid(geometry, factor) -> LightGrid:
 
 def sigma_on_grid(optics, grid: LightGrid) -> np.ndarray:
     """σt at every light-grid node (float32)."""
-    from ._kernels.lightvol import sample_sigma_grid
+    from .._kernels.lightvol import sample_sigma_grid
 
     out = np.zeros(grid.shape, np.float32)
     sample_sigma_grid(optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, grid.lo, grid.step, out)
@@ -101,7 +101,7 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP, device_cac
     :class:`pv_ambient.backend.DeviceCache` the sweeps run on the GPU (the same per-node kernel)
     and the result also stays there.
     """
-    from ._kernels.lightvol import sweep_tau
+    from .._kernels.lightvol import sweep_tau
 
     shape = grid.shape
     out = np.zeros(shape, np.float32)
@@ -134,7 +134,7 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP, device_cac
     else:  # pragma: no cover - lights are validated upstream
         raise TypeError(f"unknown light {light!r}")
     if device_cache is not None:
-        from .backend import sweep
+        from ..backend import sweep
 
         sweep(device_cache, sig_l, grid.B, is_point, float(lx), float(ly), float(lz), sweeps, int(jump), out)
         return out
@@ -158,7 +158,7 @@ def tube_extinction(ball, grid: LightGrid, radius, table) -> np.ndarray:
     with albedo 0 ``F = e^{−2τ}`` gives ρ = σ̄: Beer–Lambert through the ball-averaged medium.
     Returns float32 (m0, m1, m2, 3).
     """
-    from ._kernels.lightvol import tube_density
+    from .._kernels.lightvol import tube_density
 
     out = np.zeros(tuple(grid.shape) + (3,), np.float32)
     if radius <= 0.0:
