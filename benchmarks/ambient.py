@@ -85,7 +85,7 @@ def main(argv=None):
             tf2 = pa.TransferFunction(**{**style, "density_scale": style["density_scale"] * (1.0 + 0.05 * (k + 1))},
                                       albedo=0.9)
             r2 = pa.Renderer(grid, transfer_function=tf2, lights=[light])
-            r2._cache.update({key: v for key, v in r._cache.items() if key[0] == "table"})  # the disk cache's role
+            r2.cache.share(r.cache)  # the preintegrated table slices: the disk cache's role
             r2.render(camera=cam, **opts)
 
         t_tf = median_time(tf_change, args.repeats)

@@ -195,7 +195,7 @@ def main(argv=None):
 
         for model, preset, opts in configurations(args.quick):
             r2 = pa.Renderer(grid, transfer_function=tf, lights=lights)
-            r2._cache.update({k: v for k, v in r._cache.items() if k[0] == "table"})  # disk cache's role
+            r2.cache.share(r.cache)  # the table slices: the disk cache's role
             t = time.perf_counter()
             res = r2.render(camera=cam, window_size=size, model=model, phase=g, **opts)
             t_first = time.perf_counter() - t
@@ -204,7 +204,7 @@ def main(argv=None):
                 t = time.perf_counter()
                 res = r2.render(camera=cam, window_size=size, model=model, phase=g, **opts)
                 times.append(time.perf_counter() - t)
-            r._cache.update({k: v for k, v in r2._cache.items() if k[0] == "table"})
+            r.cache.share(r2.cache)
             t_move = float(np.median(times))
             sc = score(res.radiance)
             t_pt = pt_time_for(sc[0])

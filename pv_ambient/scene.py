@@ -16,7 +16,7 @@ A scene file is a JSON object. Keys (all but ``volume`` optional)::
      "camera": {"position": [0, -4, 0], "focal_point": [0, 0, 0], "view_up": [0, 0, 1],
                 "view_angle": 30.0, "parallel_projection": false, "parallel_scale": 1.0},
      "image": {"width": 256, "height": 256},
-     "model": "ambient_scattering",         # see pv_ambient.rendering.renderer.ALL_MODELS
+     "model": "ambient_scattering",         # see pv_ambient.rendering.presets.ALL_MODELS
      "quality": "balanced",                 # "preview" | "balanced" | "accurate"
      "background": [0, 0, 0],               # constant background radiance
      "step": null, "seed": 0, "jitter": false,
@@ -46,8 +46,8 @@ from pathlib import Path
 
 from .inputs.validation import check_choice, check_window_size
 from .backend import BACKENDS
-from .rendering.renderer import SCENE_OPTIONS as MODEL_KEYS
-from .rendering.renderer import QUALITY_STEP
+from .rendering.presets import QUALITIES
+from .rendering.presets import SCENE_OPTIONS as MODEL_KEYS
 
 SCENE_VERSION = 1
 TOP_KEYS = {"version", "volume", "scalars", "transfer_function", "phase", "lights", "camera", "image", "model",
@@ -117,7 +117,7 @@ def parse_scene(data, base_dir=".") -> Scene:
     if not isinstance(image, dict) or set(image) - {"width", "height"}:
         raise ValueError(f"image must be {{'width': int, 'height': int}}, got {image!r}")
     size = check_window_size((image.get("width", 512), image.get("height", 512)), "image width/height")
-    quality = check_choice(data.get("quality", "balanced"), "quality", tuple(QUALITY_STEP))
+    quality = check_choice(data.get("quality", "balanced"), "quality", QUALITIES)
     kw = {"camera": data.get("camera"), "window_size": size, "model": data.get("model", "emission_absorption"),
           "background": data.get("background", (0.0, 0.0, 0.0)), "seed": data.get("seed", 0),
           "jitter": data.get("jitter", False), "quality": quality}

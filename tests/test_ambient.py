@@ -98,10 +98,9 @@ def test_tube_front_equals_beer_lambert_at_albedo_zero():
     r = renderer(grid)
     lg = r.light_grid(1.0)
     radius = r._radius("3 voxels")
-    tab = r.table(as_phase(None), radius, quality="preview")
     for light in LIGHTS:
         tau = r.optical_depth(light, lg)
-        front = r.front_depth(light, lg, radius, tab)
+        front = r.front_depth(light, lg, radius, as_phase(None), quality="preview")
         for c in range(3):
             np.testing.assert_allclose(np.exp(-front[..., c]), np.exp(-tau), rtol=1e-3, atol=0)
 
@@ -111,21 +110,20 @@ def test_tube_front_in_vacuum_is_one():
     r = renderer(grid)
     lg = r.light_grid(1.0)
     radius = r._radius("2 voxels")
-    tab = r.table(as_phase(None), radius, quality="preview")
-    assert np.all(r.front_depth(LIGHTS[0], lg, radius, tab) == 0.0)
+    assert np.all(r.front_depth(LIGHTS[0], lg, radius, as_phase(None), quality="preview") == 0.0)
 
 
 def test_camera_move_and_relight_reuse_caches():
     r = renderer(physical_grid())
     render(r, "ambient_scattering", propagation="tube")
-    keys = set(r._cache)
+    keys = set(r.cache)
     cam2 = Camera((1.0, -3.5, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
     r.render(camera=cam2, window_size=SIZE, model="ambient_scattering", quality="preview", propagation="tube")
-    assert set(r._cache) == keys  # a camera move computes nothing but the ray cast
+    assert set(r.cache) == keys  # a camera move computes nothing but the ray cast
     moved = PointLight((-0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
     r.set_lights([moved, LIGHTS[1]])
     render(r, "ambient_scattering", propagation="tube")
-    new = set(r._cache) - keys
+    new = set(r.cache) - keys
     assert new and all(moved in k for k in new)  # only the moved light's volumes are computed
 
 
@@ -134,7 +132,7 @@ def test_auto_rules():
     r = renderer(physical_grid(albedo=0.0, emission=(0.2, 0.2, 0.2)))
     res = r.render(camera=CAM, window_size=SIZE, model="auto")
     assert res.metadata["model"] == "single_scattering" and res.metadata["lights"] == 0
-    assert not any(k[0] == "tau" for k in r._cache)
+    assert not any(k[0] == "tau" for k in r.cache)
     # lights with zero intensity or behind an opaque wall are skipped
     grid = physical_grid(n=9, albedo=0.8, noise=False)
     dark = PointLight((0, -1.5, 0), intensity=0.0)
@@ -160,17 +158,17 @@ def test_auto_rules():
     r = renderer(physical_grid())
     res = r.render(camera=CAM, window_size=SIZE, model="auto", quality="preview")
     assert res.metadata["model"] == "ambient_scattering"
-    tab = [v for k, v in r._cache.items() if k[0] == "table"][0]
+    tab = [v for k, v in r.cache.items() if k[0] == "table"][0]
     assert tab.D.shape[2] == 1
     # "accurate" asks for the measured most accurate noise-free model: flux-limited diffusion
     res = r.render(camera=CAM, window_size=SIZE, model="auto", quality="accurate")
     assert res.metadata["model"] == "diffusion"
-    assert any(k[0] == "diffusion" and k[-1] is True for k in r._cache)
+    assert any(k[0] == "diffusion" and k[-1] is True for k in r.cache)
     # the default ("balanced"): plain diffusion, lower error than ambient scattering on every
     # trade scene at a similar camera-move cost
     res = r.render(camera=CAM, window_size=SIZE, model="auto")
     assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is False
-    assert any(k[0] == "diffusion" and k[-1] is False for k in r._cache)
+    assert any(k[0] == "diffusion" and k[-1] is False for k in r.cache)
 
 
 def test_ambient_occlusion_homogeneous_box():

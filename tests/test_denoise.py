@@ -122,7 +122,7 @@ def test_denoise_radiance_passes_a_clean_albedo_guide(fake_oidn):
 def test_albedo_guide_is_first_collision_albedo():
     # constant albedo a: ∫ T σt a dt = a (1 − T) = a · alpha of the emission–absorption render
     r = scene()
-    g = dn.albedo_guide(r, CAM, (16, 12))
+    g = r.albedo_guide(CAM, (16, 12))
     ea = r.render(camera=CAM, window_size=(16, 12), step=r.default_step())
     assert g.shape == (12, 16, 3) and g.dtype == np.float32 and g.min() >= 0 and g.max() <= 1
     assert ea.alpha.max() > 0.5
@@ -138,7 +138,7 @@ def test_albedo_guide_of_a_colormap_tf_scales_its_colour():
     g["s"] = np.linspace(0.0, 1.0, g.n_points).astype(np.float32)
     r = pa.Renderer(g, transfer_function=pa.TransferFunction(cmap="viridis", opacity="linear", density_scale=4.0,
                                                              albedo=0.6))
-    guide = dn.albedo_guide(r, CAM, (12, 12))
+    guide = r.albedo_guide(CAM, (12, 12))
     ea = r.render(camera=CAM, window_size=(12, 12), step=r.default_step()).radiance
     assert ea.max() > 0.05
     np.testing.assert_allclose(guide, 0.6 * ea, atol=1e-5)
@@ -148,7 +148,7 @@ def test_albedo_guide_of_a_colormap_tf_scales_its_colour():
 def test_oidn_with_albedo_guide_keeps_the_mean():
     r = scene()
     raw = r.render(camera=CAM, window_size=(32, 32), model="path_traced", samples_per_pixel=4, seed=5)
-    out = dn.denoise_radiance(raw.radiance, albedo=dn.albedo_guide(r, CAM, (32, 32)))
+    out = dn.denoise_radiance(raw.radiance, albedo=r.albedo_guide(CAM, (32, 32)))
     assert np.all(np.isfinite(out)) and out.min() >= 0
     np.testing.assert_allclose(out.astype(np.float64).sum(axis=(0, 1)),
                                raw.radiance.astype(np.float64).sum(axis=(0, 1)), rtol=1e-5)

@@ -35,12 +35,12 @@ def test_multiple_scattering_is_second_order_in_albedo():
 def test_relight_resolves_only_the_moved_light():
     r = renderer(physical_grid())
     render(r, "diffusion")
-    keys = {k for k in r._cache if k[0] == "diffusion"}
+    keys = {k for k in r.cache if k[0] == "diffusion"}
     assert len(keys) == 2  # one solve per light
     moved = PointLight((-0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
     r.set_lights([moved, LIGHTS[1]])
     render(r, "diffusion")
-    new = {k for k in r._cache if k[0] == "diffusion"} - keys
+    new = {k for k in r.cache if k[0] == "diffusion"} - keys
     assert len(new) == 1 and moved in next(iter(new))
 
 

@@ -76,7 +76,7 @@ def test_empty_space_skipping_changes_nothing():
     assert (r.majorant() == 0).mean() > 0.3
     cam = Camera((2, -1.5, 1.2), (0.5, 0.5, 0.5), (0, 0, 1))
     a = r.render(camera=cam, window_size=(40, 40), early_termination=0.0)
-    r._cache[("majorant", 8)] = np.ones_like(r.majorant())  # no block is empty
+    r.cache[("majorant", 8)] = np.ones_like(r.majorant())  # no block is empty
     b = r.render(camera=cam, window_size=(40, 40), early_termination=0.0)
     assert np.max(np.abs(a.radiance - b.radiance)) < 2e-3 * b.radiance.max()
 

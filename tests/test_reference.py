@@ -21,7 +21,6 @@ import pv_ambient as pa
 from pv_ambient._kernels import rng
 from pv_ambient._kernels.tracking import draw, free_flight_array, transmittance_array
 from pv_ambient.inputs.camera import Camera
-from pv_ambient.stages.reference import path_trace
 
 # --- helpers -----------------------------------------------------------------------------------
 
@@ -204,7 +203,7 @@ def test_single_scattering_point_light_against_quadrature():
     r = renderer(sigma, (h, h, h), origin, albedo=albedo, lights=[pa.PointLight(light_pos, light_I)])
     cam = Camera((0.4, -4.0, 0.3), (0.0, 0.0, 0.0), (0, 0, 1), view_angle=14)
     size = (6, 6)
-    res = path_trace(r, cam, size, phase=g_phase, samples_per_pixel=1024, max_depth=1, seed=7, batch=256,
+    res = r.path_trace(cam, size, phase=g_phase, samples_per_pixel=1024, max_depth=1, seed=7, batch=256,
                      light_clamp=1e-3)
 
     def sig_at(pts):
@@ -277,7 +276,7 @@ def test_error_falls_as_inverse_sqrt_n():
     ns = np.array([4, 16, 64, 256])
     rmse = []
     for k, n in enumerate(ns):
-        res = path_trace(r, cam, (16, 16), samples_per_pixel=int(n), seed=100 + k, batch=64, **kw)
+        res = r.path_trace(cam, (16, 16), samples_per_pixel=int(n), seed=100 + k, batch=64, **kw)
         err = res.radiance - exact
         rmse.append(np.sqrt(np.mean(err ** 2)))
     slope = np.polyfit(np.log(ns), np.log(rmse), 1)[0]
@@ -422,7 +421,7 @@ def test_fast_against_simple_oracle_per_pixel_z():
                  lights=[pa.PointLight(light, intensity)])
     cam = Camera((0.5, -4.0, 0.8), (0.0, 0.0, 0.0), (0, 0, 1), view_angle=32)
     size, spp = (16, 16), 512
-    fast = path_trace(r, cam, size, phase=g_phase, samples_per_pixel=spp, seed=11, batch=128)
+    fast = r.path_trace(cam, size, phase=g_phase, samples_per_pixel=spp, seed=11, batch=128)
     orgs, dirs = cam.rays(size)
     mean = np.zeros(size[::-1])
     se = np.zeros(size[::-1])
@@ -446,7 +445,6 @@ def test_fast_against_simple_oracle_per_pixel_z():
 _THREAD_SCRIPT = r"""
 import sys, numpy as np, numba, pyvista as pv
 import pv_ambient as pa, datasets_synthetic as ds
-from pv_ambient.stages.reference import path_trace
 assert numba.config.NUMBA_NUM_THREADS == int(sys.argv[2]), numba.config.NUMBA_NUM_THREADS
 vol = ds.cloud(n=16, seed=1)
 g = pv.ImageData(dimensions=vol.dimensions, spacing=vol.spacing, origin=vol.origin)
@@ -455,7 +453,7 @@ g["albedo"] = np.tile([0.9, 0.7, 0.5], (g.n_points, 1)).astype(np.float32)
 r = pa.Renderer(g, transfer_function=pa.TransferFunction.physical(),
                 lights=[pa.PointLight((1.5, -1.5, 1.0), 6.0), pa.DirectionalLight((0.3, 0.2, -1.0), 0.5)])
 cam = pa.Camera((0.3, -3.5, 0.6), (0, 0, 0), (0, 0, 1))
-res = path_trace(r, cam, (13, 9), phase=0.5, samples_per_pixel=10, batch=3, seed=5)
+res = r.path_trace(cam, (13, 9), phase=0.5, samples_per_pixel=10, batch=3, seed=5)
 np.savez(sys.argv[1], radiance=res.radiance, alpha=res.alpha, std_error=res.std_error)
 """
 
@@ -479,7 +477,7 @@ def test_albedo_zero_without_emission_is_black():
     sigma = blob_sigma(n=13, peak=4.0)
     r = renderer(sigma, (1 / 6,) * 3, (-1, -1, -1), albedo=0.0,
                  lights=[pa.PointLight((0.2, 0.1, 0.3), 50.0), pa.DirectionalLight((0, 0, -1), 3.0)])
-    res = path_trace(r, Camera((0, -4, 0), (0, 0, 0), (0, 0, 1)), (12, 12), samples_per_pixel=8, phase=0.3)
+    res = r.path_trace(Camera((0, -4, 0), (0, 0, 0), (0, 0, 1)), (12, 12), samples_per_pixel=8, phase=0.3)
     assert np.all(res.radiance == 0) and np.all(res.std_error == 0) and res.alpha.max() > 0.5
 
 
@@ -497,7 +495,7 @@ def test_emission_only_matches_emission_absorption():
     r = renderer(sigma, (2 / (n - 1),) * 3, (-1, -1, -1), albedo=0.0, emission=emis)
     cam = Camera((1.0, -4.0, 0.5), (0, 0, 0), (0, 0, 1), view_angle=30)
     size = (8, 8)
-    pt = path_trace(r, cam, size, samples_per_pixel=2048, seed=9, background=bg, batch=512)
+    pt = r.path_trace(cam, size, samples_per_pixel=2048, seed=9, background=bg, batch=512)
     h = r.default_step() / 16
     ea = r.render(camera=cam, window_size=size, step=h, early_termination=0.0, background=bg).radiance
     ea2 = r.render(camera=cam, window_size=size, step=h / 2, early_termination=0.0, background=bg).radiance
@@ -526,8 +524,8 @@ def test_lookup_table_mode_matches_grid_mode():
     grid = renderer(3.0 * s, (2 / (n - 1),) * 3, (-1, -1, -1), albedo=alb, emission=em, lights=lights)
     assert lut.optics.mode != grid.optics.mode
     cam = Camera((1.0, -4.0, 0.5), (0, 0, 0), (0, 0, 1))
-    a = path_trace(lut, cam, (8, 8), samples_per_pixel=128, phase=0.3, seed=2)
-    b = path_trace(grid, cam, (8, 8), samples_per_pixel=128, phase=0.3, seed=2)
+    a = lut.path_trace(cam, (8, 8), samples_per_pixel=128, phase=0.3, seed=2)
+    b = grid.path_trace(cam, (8, 8), samples_per_pixel=128, phase=0.3, seed=2)
     se = np.sqrt(np.sum(a.std_error.astype(float) ** 2, axis=(0, 1))) / 64
     assert np.all(np.abs(a.radiance.mean(axis=(0, 1)) - b.radiance.mean(axis=(0, 1))) < 3 * se)
     assert a.radiance.mean() > 0.01
@@ -538,7 +536,7 @@ def test_lookup_table_mode_matches_grid_mode():
 
 def test_target_error_stops_early_and_metadata():
     r, cam, exact, kw = slab_scene()
-    res = path_trace(r, cam, (8, 8), samples_per_pixel=4096, target_error=0.02, batch=16, seed=1, **kw)
+    res = r.path_trace(cam, (8, 8), samples_per_pixel=4096, target_error=0.02, batch=16, seed=1, **kw)
     m = res.metadata
     assert m["relative_error"] <= 0.02 and 16 <= m["spp"] < 4096 and m["spp"] % 16 == 0
     assert m["model"] == "path_traced" and m["max_depth"] == 1 and m["seed"] == 1 and m["time"] > 0
@@ -553,7 +551,7 @@ def test_target_error_stops_early_and_metadata():
 def test_bad_arguments(bad, match):
     r, cam, _, _ = slab_scene()
     with pytest.raises(ValueError, match=match):
-        path_trace(r, cam, (4, 4), **bad)
+        r.path_trace(cam, (4, 4), **bad)
 
 
 def test_depth_one_reference_equals_single_scattering_model():

@@ -37,6 +37,7 @@ baked per voxel and the optical properties are interpolated (pre-classification)
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from dataclasses import dataclass, field
@@ -101,6 +102,18 @@ class Optics:
         if self.mode == MODE_GRID:
             return self.aux[..., 0:3]
         return _lookup(self, self.field, COL_ALBEDO, 3)
+
+    def albedo_as_colour(self) -> "Optics":
+        """The same σt with the colour (the emission–absorption source) replaced by the scattering
+        albedo: its emission–absorption image is ``∫ T σt a dt``, the expected albedo at each ray's
+        first collision times its coverage (the denoiser's albedo guide)."""
+        if self.mode == MODE_GRID:  # physical TF: aux = albedo rgb, emission rgb; EA colour = emission
+            aux = self.aux.copy()
+            aux[..., 3:6] = self.aux[..., 0:3]
+            return dataclasses.replace(self, aux=aux)
+        table = self.table.copy()
+        table[:, COL_COLOR:COL_COLOR + 3] = self.table[:, COL_ALBEDO:COL_ALBEDO + 3]
+        return dataclasses.replace(self, table=table)
 
 
 def _lookup(optics, s, col, ncomp):

@@ -11,7 +11,8 @@ from numbers import Integral, Real
 import numpy as np
 
 
-def _show(value) -> str:
+def show_value(value) -> str:
+    """``repr(value)``, cut to 80 characters: how error messages quote what they received."""
     text = repr(value)
     return text if len(text) <= 80 else text[:77] + "..."
 
@@ -19,7 +20,7 @@ def _show(value) -> str:
 def check_real(value, name: str, *, lo=None, hi=None, lo_open=False, hi_open=False) -> float:
     """Return ``value`` as a finite float inside the stated interval, or raise naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {_show(value)}")
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {show_value(value)}")
     out = float(value)
     if not math.isfinite(out):
         raise ValueError(f"{name} must be finite, got {out!r}")
@@ -34,7 +35,7 @@ def check_real(value, name: str, *, lo=None, hi=None, lo_open=False, hi_open=Fal
 
 def check_int(value, name: str, *, lo=None) -> int:
     if isinstance(value, bool) or not isinstance(value, (Integral, np.integer)):
-        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {_show(value)}")
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {show_value(value)}")
     out = int(value)
     if lo is not None and out < lo:
         raise ValueError(f"{name} must be >= {lo}, got {out}")
@@ -46,17 +47,17 @@ def check_vector(value, name: str, size: int = 3, *, nonneg=False, nonzero=False
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be {size} numbers, got {_show(value)}") from None
+        raise TypeError(f"{name} must be {size} numbers, got {show_value(value)}") from None
     if arr.ndim == 0:
         arr = np.full(size, float(arr))
     if arr.shape != (size,):
-        raise ValueError(f"{name} must have {size} components, got shape {arr.shape}: {_show(value)}")
+        raise ValueError(f"{name} must have {size} components, got shape {arr.shape}: {show_value(value)}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {_show(value)}")
+        raise ValueError(f"{name} must be finite, got {show_value(value)}")
     if nonneg and np.any(arr < 0):
-        raise ValueError(f"{name} must be non-negative, got {_show(value)}")
+        raise ValueError(f"{name} must be non-negative, got {show_value(value)}")
     if nonzero and not np.any(arr != 0):
-        raise ValueError(f"{name} must not be the zero vector, got {_show(value)}")
+        raise ValueError(f"{name} must not be the zero vector, got {show_value(value)}")
     return arr
 
 
@@ -64,9 +65,9 @@ def check_rgb(value, name: str, *, lo=0.0, hi=None) -> np.ndarray:
     """An RGB triple (a scalar means grey) with every component in [lo, hi]."""
     arr = check_vector(value, name, 3)
     if lo is not None and np.any(arr < lo):
-        raise ValueError(f"{name} components must be >= {lo}, got {_show(value)}")
+        raise ValueError(f"{name} components must be >= {lo}, got {show_value(value)}")
     if hi is not None and np.any(arr > hi):
-        raise ValueError(f"{name} components must be <= {hi}, got {_show(value)}")
+        raise ValueError(f"{name} components must be <= {hi}, got {show_value(value)}")
     return arr
 
 
@@ -75,16 +76,16 @@ def check_window_size(value, name: str = "window_size") -> tuple[int, int]:
     try:
         w, h = value
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be (width, height), got {_show(value)}") from None
+        raise TypeError(f"{name} must be (width, height), got {show_value(value)}") from None
     out = []
     for v in (w, h):
         if isinstance(v, bool) or not isinstance(v, (Integral, np.integer)):
             if isinstance(v, (float, np.floating)) and float(v).is_integer():
                 v = int(v)
             else:
-                raise TypeError(f"{name} must be two positive integers, got {_show(value)}")
+                raise TypeError(f"{name} must be two positive integers, got {show_value(value)}")
         if int(v) <= 0:
-            raise ValueError(f"{name} must be two positive integers, got {_show(tuple(value))}")
+            raise ValueError(f"{name} must be two positive integers, got {show_value(tuple(value))}")
         out.append(int(v))
     return out[0], out[1]
 
@@ -92,5 +93,5 @@ def check_window_size(value, name: str = "window_size") -> tuple[int, int]:
 def check_choice(value, name: str, choices) -> str:
     if not isinstance(value, str) or value not in choices:
         options = ", ".join(repr(c) for c in choices)
-        raise ValueError(f"{name} must be one of {options}; got {_show(value)}")
+        raise ValueError(f"{name} must be one of {options}; got {show_value(value)}")
     return value

@@ -1,63 +1,51 @@
 """``render(grid, ...)`` and the :class:`Renderer` that keeps per-scene caches.
 
-Data flows one way (DESIGN §5): ImageData → arrays (``_grid``) → optical properties
-(``transfer``) → per-light / per-radius volumes → image. Each stage is cached on its inputs, so
-moving the camera re-runs only the ray cast.
+Data flows one way (docs/architecture.rst): ImageData → arrays (:mod:`pv_ambient.inputs.grid`) →
+optical properties (:mod:`pv_ambient.inputs.transfer`) → per-light / per-radius volumes and solves
+(:mod:`pv_ambient.stages`, cached in the renderer's :class:`~pv_ambient.rendering.cache.SceneCache`)
+→ image (:mod:`pv_ambient.backend`). A render's arguments are checked once into a frozen
+:class:`RenderRequest`; ``auto`` is decided in :meth:`Renderer.choose_model`; so moving the camera
+re-runs only the ray cast.
 """
 
 from __future__ import annotations
 
+import copy
 import time
 import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..inputs.grid import Volume, volume_from_image
-from ..inputs.validation import check_choice, check_int, check_real, check_rgb
-from ..backend import resolve_backend
+from ..backend import BACKENDS, resolve_backend
 from ..inputs.camera import as_camera
+from ..inputs.grid import Volume, volume_from_image
 from ..inputs.lights import as_lights, pack_lights
-from .result import RenderResult
 from ..inputs.transfer import as_transfer_function
+from ..inputs.validation import check_choice, check_int, check_real, check_rgb
+from ..stages.reference import RR_DEPTH
+from .cache import SceneCache
+from .presets import (
+    ALL_MODELS,
+    BUDGET_MAX_SPP,
+    DEFAULT_PROPAGATION,
+    DEFAULT_SPP,
+    ERT,
+    MAJORANT_BLOCK,
+    MODEL_OPTIONS,
+    MODEL_SPECS,
+    MODEL_TABLE,
+    PROPAGATION_MODES,
+    QUALITIES,
+    QUALITY_PRESETS,
+    TAU_OPAQUE,
+    step_for,
+)
+from .result import RenderResult
 
-MODELS = ("emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering", "path_traced",
-          "diffusion")
-MODEL_IDS = {"emission_absorption": 0, "ambient_occlusion": 1, "single_scattering": 2, "ambient_scattering": 3,
-             "diffusion": 4}
-#: Optical depth above which a light counts as blocked (e^-700 underflows double precision soon after).
-TAU_OPAQUE = 700.0
+#: The ray-cast models' kernel ids (from the model table).
+MODEL_IDS = {m.name: m.kernel_id for m in MODEL_TABLE if m.kernel_id is not None}
 _DUMMY4 = np.zeros((1, 1, 1, 1), np.float32)
-ALL_MODELS = ("auto", "emission_absorption", "ambient_occlusion", "single_scattering", "ambient_scattering",
-              "diffusion", "path_traced")
-#: Block size (samples) of the majorant grid used for empty-space skipping.
-MAJORANT_BLOCK = 8
-#: Default early-ray-termination threshold on the transmittance.
-ERT = 1e-5
-#: Ray step per quality preset, in units of the smallest grid spacing.
-QUALITY_STEP = {"preview": 1.0, "balanced": 0.5, "accurate": 0.25}
-#: What each quality preset sets when the knob is not given explicitly: ray step (smallest grid
-#: spacings), light-grid nodes per data spacing (None: DESIGN §4.3's default, 2 where
-#: max σt·h > 0.3 else 1), preintegrated-table effort, and samples per pixel of ``path_traced``.
-#: Measured cost and error per preset: README, "Quality presets".
-QUALITY_PRESETS = {
-    "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16},
-    "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64},
-    "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256},
-}
-#: Options that belong to particular models (accepted by every render call, used where they apply).
-MODEL_OPTIONS = {"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
-                 "target_error", "time_budget"}
-#: Every option a scene file may carry at top level besides the common ones.
-SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
-#: Light propagation modes of ambient scattering (DESIGN §4.3) and the default.
-PROPAGATION_MODES = ("beer_lambert", "tube")
-DEFAULT_PROPAGATION = "beer_lambert"
-#: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
-BUDGET_MAX_SPP = 4096
-#: Default ambient radius per model, in units of the largest grid spacing. For ambient scattering,
-#: 8 voxels with Beer–Lambert fronts measured closest to the path-traced reference on all three
-#: scenes of ``benchmarks/trade.py`` (radii 2, 4, 8 × both modes; README, "The trade").
-DEFAULT_RADIUS_VOXELS = {"ambient_scattering": 8.0, "auto": 8.0, "ambient_occlusion": 4.0}
 _DUMMY3 = np.zeros((1, 1, 1), np.float32)
 _DUMMY1 = np.zeros(1, np.float64)
 _DUMMY12 = np.zeros((1, 1, 1, 12), np.float32)
@@ -107,8 +95,6 @@ class Renderer:
 
     def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=(),
                  preference="point", nan_policy="raise", backend="auto"):
-        from ..backend import BACKENDS
-
         check_choice(preference, "preference", ("point", "cell"))
         check_choice(backend, "backend", BACKENDS)
         self.backend = backend
@@ -119,9 +105,25 @@ class Renderer:
                                                      nan_policy=nan_policy)
         self.timings = {"classify": time.perf_counter() - t}
         self.lights = as_lights(lights)
-        self._cache = {}
+        self.cache = SceneCache()
         self._device = None  # backend.DeviceCache once the CUDA backend has run
-        self._running = "cpu"  # the backend of the render in progress (light volumes follow it)
+
+    def __getstate__(self):
+        # the GPU-resident copies stay behind: a renderer sent to another process (a Dask worker)
+        # uploads what it needs there
+        state = self.__dict__.copy()
+        state["_device"] = None
+        return state
+
+    def with_optics(self, optics) -> "Renderer":
+        """A renderer of the same volume, lights and backend with other optical properties
+        (``pv_ambient.inputs.transfer.Optics``) of the same σt: it starts from this renderer's
+        σt-only cache entries (majorant, light grids, optical depths) and shares its GPU cache."""
+        other = copy.copy(self)
+        other.optics = optics
+        other.cache = self.cache.with_sigma_only()
+        other.timings = {}
+        return other
 
     @property
     def device_cache(self):
@@ -142,7 +144,7 @@ class Renderer:
 
     def default_step(self, quality="balanced") -> float:
         """The ray step of a quality preset (world units)."""
-        return QUALITY_STEP[quality] * float(np.min(self.geometry.spacing))
+        return step_for(quality, np.min(self.geometry.spacing))
 
     def set_lights(self, lights):
         """Replace the lights; cached volumes of lights that stay are kept (a relight)."""
@@ -151,15 +153,15 @@ class Renderer:
     def majorant(self, block=MAJORANT_BLOCK):
         """Upper bound of σt per ``block``³ samples (cached)."""
         key = ("majorant", block)
-        if key not in self._cache:
+        if key not in self.cache:
             from .._kernels.majorant import build_majorant
 
             o = self.optics
             shape = tuple(max(1, -(-(n - 1) // block)) for n in o.field.shape)
             maj = np.zeros(shape, np.float32)
             build_majorant(o.mode, o.field, o.table, o.lut_lo, o.lut_inv, block, maj)
-            self._cache[key] = maj
-        return self._cache[key]
+            self.cache[key] = maj
+        return self.cache[key]
 
     # -- cached stages ---------------------------------------------------------------------
     def light_grid(self, light_resolution=None):
@@ -168,45 +170,46 @@ class Renderer:
 
         f = default_factor(self.optics, self.geometry) if light_resolution is None else light_resolution
         key = ("light_grid", float(f))
-        if key not in self._cache:
-            self._cache[key] = make_light_grid(self.geometry, f)
-        return self._cache[key]
+        if key not in self.cache:
+            self.cache[key] = make_light_grid(self.geometry, f)
+        return self.cache[key]
 
     def sigma_on_light_grid(self, grid):
         from ..stages.propagation import sigma_on_grid
 
         key = ("sigma_l", grid.key())
-        if key not in self._cache:
-            self._cache[key] = sigma_on_grid(self.optics, grid)
-        return self._cache[key]
+        if key not in self.cache:
+            self.cache[key] = sigma_on_grid(self.optics, grid)
+        return self.cache[key]
 
-    def optical_depth(self, light, grid):
-        """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light)."""
+    def optical_depth(self, light, grid, backend="cpu"):
+        """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light),
+        swept on ``backend`` (``"cpu"`` or ``"cuda"``) when not cached."""
         from ..stages.propagation import optical_depth
 
         key = ("tau", light, grid.key())
-        if key not in self._cache:
+        if key not in self.cache:
             t = time.perf_counter()
-            dev = self.device_cache if self._running == "cuda" else None
-            self._cache[key] = optical_depth(self.sigma_on_light_grid(grid), grid, self.geometry, light,
+            dev = self.device_cache if backend == "cuda" else None
+            self.cache[key] = optical_depth(self.sigma_on_light_grid(grid), grid, self.geometry, light,
                                              device_cache=dev)
             self.timings[f"light volume {light}"] = time.perf_counter() - t
-        return self._cache[key]
+        return self.cache[key]
 
     def _scattering_nodes(self, grid):
         """Light-grid node indices (nearest node) of the data samples that scatter (σt·albedo > 0)."""
         key = ("scattering_nodes", grid.key())
-        if key not in self._cache:
+        if key not in self.cache:
             sig = self.optics.sigma_grid()
             alb = self.optics.albedo_grid()
             mask = (sig > 0) & (alb.max(axis=-1) > 0)
             idx = np.nonzero(mask)
             nodes = tuple(np.clip(np.rint((i - grid.lo[a]) * grid.inv_step[a]).astype(np.intp), 0, grid.shape[a] - 1)
                           for a, i in enumerate(idx))
-            self._cache[key] = nodes
-        return self._cache[key]
+            self.cache[key] = nodes
+        return self.cache[key]
 
-    def active_lights(self, grid):
+    def active_lights(self, grid, backend="cpu"):
         """Lights that reach the scattering medium: non-zero power, and optical depth below
         ``TAU_OPAQUE`` at some sample that scatters (σt·albedo > 0)."""
         out = []
@@ -216,7 +219,7 @@ class Renderer:
         for lt in self.lights:
             if max(lt.power) <= 0.0:
                 continue
-            if float(np.min(self.optical_depth(lt, grid)[nodes])) > TAU_OPAQUE:
+            if float(np.min(self.optical_depth(lt, grid, backend)[nodes])) > TAU_OPAQUE:
                 continue
             out.append(lt)
         return tuple(out)
@@ -225,7 +228,7 @@ class Renderer:
         """σ̄ (mean extinction over the ball of world radius ``radius``) and the ball's mean albedo
         ā = mean(σs)/σ̄ per channel, at every data sample: float32 (nx, ny, nz, 4)."""
         key = ("ball", float(radius))
-        if key not in self._cache:
+        if key not in self.cache:
             from ..stages.sat import mean_extinction
 
             sig = self.optics.sigma_grid()
@@ -240,8 +243,8 @@ class Renderer:
                 ms = mean_extinction(np.ascontiguousarray(sig * alb[..., c]), sp, radius)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     out[..., 1 + c] = np.where(out[..., 0] > 0, np.clip(ms / out[..., 0], 0.0, 1.0), 0.0)
-            self._cache[key] = out
-        return self._cache[key]
+            self.cache[key] = out
+        return self.cache[key]
 
     def albedo_range(self, radius):
         """(min, max) of the ball-mean albedo ā over the medium (where σ̄ > 0), all channels."""
@@ -252,33 +255,40 @@ class Renderer:
         a = ball[..., 1:4][inside]
         return float(a.min()), float(a.max())
 
-    def table(self, phase, radius, quality="balanced", progress_bar=False):
-        """The preintegrated D/F slice for ``phase`` and the albedo range the scene needs (cached)."""
-        from ..stages.preintegration import albedo_nodes_for, get_table
+    def _table_key(self, phase, radius, quality):
+        from ..stages.preintegration import albedo_nodes_for
 
         lo, hi = self.albedo_range(radius)
         # keyed on the albedo nodes the range needs: nearby ranges share one slice
-        key = ("table", phase.kind, float(phase.g), tuple(albedo_nodes_for(lo, hi).tolist()), quality)
-        if key not in self._cache:
-            t = time.perf_counter()
-            self._cache[key] = get_table(phase, albedo_range=(lo, hi), quality=quality, progress_bar=progress_bar)
-            self.timings["table"] = time.perf_counter() - t
-        return self._cache[key]
+        return ("table", phase.kind, float(phase.g), tuple(albedo_nodes_for(lo, hi).tolist()), quality)
 
-    def front_depth(self, light, grid, radius, table):
+    def table(self, phase, radius, quality="balanced", progress_bar=False):
+        """The preintegrated D/F slice for ``phase`` and the albedo range the scene needs (cached)."""
+        from ..stages.preintegration import get_table
+
+        key = self._table_key(phase, radius, quality)
+        if key not in self.cache:
+            lo, hi = self.albedo_range(radius)
+            t = time.perf_counter()
+            self.cache[key] = get_table(phase, albedo_range=(lo, hi), quality=quality, progress_bar=progress_bar)
+            self.timings["table"] = time.perf_counter() - t
+        return self.cache[key]
+
+    def front_depth(self, light, grid, radius, phase, quality="balanced"):
         """Tube-mode front optical depth per channel, (m0, m1, m2, 3) float32 (cached per light, r, table)."""
         from ..stages.propagation import optical_depth, tube_extinction
 
-        key = ("front", light, grid.key(), float(radius), id(table))
-        if key not in self._cache:
+        key = ("front", light, grid.key(), float(radius), self._table_key(phase, radius, quality))
+        if key not in self.cache:
+            table = self.table(phase, radius, quality)
             t = time.perf_counter()
             rho = tube_extinction(self._ball_on_light_grid(radius, grid), grid, radius, table)
             out = np.empty_like(rho)
             for c in range(3):
                 out[..., c] = optical_depth(np.ascontiguousarray(rho[..., c]), grid, self.geometry, light)
-            self._cache[key] = out
+            self.cache[key] = out
             self.timings[f"front volume {light}"] = time.perf_counter() - t
-        return self._cache[key]
+        return self.cache[key]
 
     def _ball_on_light_grid(self, radius, grid):
         """The ball grid with σ̄ averaged over the part of the ball inside the grid.
@@ -288,7 +298,7 @@ class Renderer:
         same property (homogeneous medium, albedo 0: Φ equals Beer–Lambert exactly).
         """
         key = ("ball_inside", float(radius))
-        if key not in self._cache:
+        if key not in self.cache:
             ball = self.ball_grid(radius).copy()
             if radius > 0:
                 half = 0.5 * radius * (4.0 * np.pi / 3.0) ** (1.0 / 3.0) / self.geometry.spacing
@@ -300,10 +310,10 @@ class Renderer:
                     shape[ax] = n
                     frac = frac * (inside / (2.0 * half[ax])).reshape(shape)
                 ball[..., 0] = (ball[..., 0] / np.maximum(frac, 1e-12)).astype(np.float32)
-            self._cache[key] = ball
-        return self._cache[key]
+            self.cache[key] = ball
+        return self.cache[key]
 
-    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False):
+    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu"):
         """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (DESIGN §4b),
         (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
         relight re-solves only the light that changed (warm-started from its previous solution).
@@ -317,11 +327,11 @@ class Renderer:
         g = float(phase.mean_cosine)
         total = None
         keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited)) for lt in lights)
-        if len(keys) > 1 and ("diffusion_sum", keys) in self._cache:
-            return self._cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
+        if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
+            return self.cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
         for lt in lights:
             key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
-            if key not in self._cache:
+            if key not in self.cache:
                 t = time.perf_counter()
                 sol = solve_for_light(self, lt, g, light_resolution=grid.factor, flux_limited=bool(flux_limited),
                                       progress_bar=progress_bar)
@@ -329,28 +339,40 @@ class Renderer:
                 if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
                                                                                        packed[..., 8:12]):
                     packed = np.ascontiguousarray(packed[..., 0:4])  # grey: one channel read per sample
-                self._cache[key] = packed
+                self.cache[key] = packed
                 self.timings[f"diffusion {lt}"] = time.perf_counter() - t
                 self._diffusion_info = {"iterations": int(sol.iterations), "residual": float(sol.residual),
                                         "converged": bool(sol.converged)}
-            part = self._cache[key]
+            part = self.cache[key]
             if total is not None and total.shape != part.shape:  # grey and coloured lights: all 12
                 total, part = (np.tile(a, (1, 1, 1, 3)) if a.shape[3] == 4 else a for a in (total, part))
             total = part if total is None else total + part
         if len(keys) > 1:
-            self._cache[("diffusion_sum", keys)] = total
+            self.cache[("diffusion_sum", keys)] = total
         return total if total is not None else _DUMMY12
 
-    def resolve_model(self, model, grid=None, quality="balanced"):
-        """The model ``auto`` stands for (rules in :meth:`render`)."""
-        if model != "auto":
-            return model
+    def choose_model(self, request) -> tuple:
+        """The model a request renders and the options the choice adds: ``auto``'s rules (listed in
+        :meth:`render`) decided in this one place; any other model stands for itself."""
+        if request.model != "auto":
+            return request.model, {}
+        grid = self.light_grid(request.light_resolution)
         if not self.optics.has_scattering:
-            return "single_scattering"  # emission only: no light volumes are built (no scattering)
-        lights = self.active_lights(grid or self.light_grid())
-        if not lights:
-            return "single_scattering"
-        return "ambient_scattering" if quality == "preview" else "diffusion"
+            model = "single_scattering"  # emission only: no light volumes are built (no scattering)
+        elif not self.active_lights(grid, request.backend):
+            model = "single_scattering"
+        else:
+            model = "ambient_scattering" if request.quality == "preview" else "diffusion"
+        if request.time_budget is not None and model != "single_scattering":
+            from ..stages.denoise import available
+
+            extra = {"time_limit": request.time_budget, "denoise": request.options.get("denoise", available())}
+            if "samples_per_pixel" not in request.explicit:
+                extra["samples_per_pixel"] = BUDGET_MAX_SPP
+            return "path_traced", extra
+        if model == "diffusion" and request.quality == "accurate":
+            return model, {"flux_limited": request.options.get("flux_limited", True)}
+        return model, {}
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
@@ -449,96 +471,100 @@ class Renderer:
         A point light's fall-off ``I/d²`` is clamped at ``d = step/4`` (a sample closer than a
         quarter step to the light cannot resolve the singularity).
         """
+        req = self.request(camera=camera, window_size=window_size, model=model, quality=quality, step=step,
+                           jitter=jitter, seed=seed, background=background, early_termination=early_termination,
+                           phase=phase, progress_bar=progress_bar, radius=radius, light_resolution=light_resolution,
+                           ambient_radiance=ambient_radiance, propagation=propagation, table_quality=table_quality,
+                           ray_end=ray_end, backend=backend, **model_options)
+        return self.render_request(req)
+
+    def request(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
+                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
+                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
+                propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
+                **model_options) -> "RenderRequest":
+        """Check :meth:`render`'s arguments once into a frozen :class:`RenderRequest` (same parameters)."""
         from ..inputs.phase import as_phase
         from ..stages.propagation import default_factor
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
         check_choice(model, "model", ALL_MODELS)
-        check_choice(quality, "quality", tuple(QUALITY_STEP))
+        check_choice(quality, "quality", QUALITIES)
         check_choice(propagation, "propagation", PROPAGATION_MODES)
         preset = QUALITY_PRESETS[quality]
         if table_quality is None:
             table_quality = preset["table_quality"]
-        check_choice(table_quality, "table_quality", tuple(QUALITY_STEP))
+        check_choice(table_quality, "table_quality", QUALITIES)
         if light_resolution is None and preset["light_resolution"] is not None:
             light_resolution = max(preset["light_resolution"],
                                    default_factor(self.optics, self.geometry) if quality == "accurate" else 0.0)
-        explicit = set(model_options)
+        explicit = frozenset(model_options)
         model_options.setdefault("samples_per_pixel", preset["samples_per_pixel"])
         unknown = set(model_options) - MODEL_OPTIONS
         if unknown:
             raise TypeError(f"render() got unknown options {sorted(unknown)}; model options are {sorted(MODEL_OPTIONS)}")
         if step is None:
-            step = QUALITY_STEP[quality] * float(np.min(self.geometry.spacing))
+            step = step_for(quality, np.min(self.geometry.spacing))
         else:
             step = check_real(step, "step", lo=0.0, lo_open=True)
-        seed = check_int(seed, "seed", lo=0)
-        bg = check_rgb(background, "background")
-        ert = check_real(early_termination, "early_termination", lo=0.0, hi=1.0)
-        amb = check_real(ambient_radiance, "ambient_radiance", lo=0.0)
-        ph = as_phase(phase)
-        radius = self._radius(radius, model)
-        t_end = _ray_end(ray_end, size)
-        asked = self.backend if backend is None else backend
-        backend = resolve_backend(asked)
+        asked = self.backend if backend is None else check_choice(backend, "backend", BACKENDS)
         budget = model_options.pop("time_budget", None)
         if budget is not None:
             budget = check_real(budget, "time_budget", lo=0.0, lo_open=True)
             if model != "auto":
                 raise ValueError(f"time_budget chooses the model: use it with model='auto', not {model!r}")
-            grid0 = self.light_grid(light_resolution)
-            if self.resolve_model("auto", grid0, quality) != "single_scattering":
-                from ..stages.denoise import available
+        denoise = model_options.get("denoise", False)
+        if denoise not in (True, False):
+            raise TypeError(f"denoise must be True or False, got {denoise!r}")
+        if model == "path_traced" and ray_end is not None:
+            raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
+        return RenderRequest(
+            camera=cam, window_size=size, model=model, quality=quality, step=step, jitter=bool(jitter),
+            seed=check_int(seed, "seed", lo=0), background=check_rgb(background, "background"),
+            early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
+            ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
+            radius=self._radius(radius, model), t_end=_ray_end(ray_end, size), light_resolution=light_resolution,
+            table_quality=table_quality, propagation=propagation, progress_bar=bool(progress_bar), asked=asked,
+            backend=resolve_backend(asked), time_budget=budget, options=dict(model_options), explicit=explicit)
 
-                model = "path_traced"
-                model_options["time_limit"] = budget
-                model_options.setdefault("denoise", available())
-                if "samples_per_pixel" not in explicit:
-                    model_options["samples_per_pixel"] = BUDGET_MAX_SPP
+    def render_request(self, req: "RenderRequest") -> RenderResult:
+        """Render a checked :class:`RenderRequest` (what :meth:`render` does after checking)."""
+        model, extra = self.choose_model(req)
+        options = {**req.options, **extra}
         if model == "path_traced":
-            if ray_end is not None:
-                raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
-            return self._path_trace(cam, size, ph, step, seed, bg, progress_bar, model_options, backend)
-        self._running = backend
-        try:
-            return self._render(cam, size, model, quality, step, jitter, seed, bg, ert, amb, ph, radius, t_end,
-                                light_resolution, table_quality, propagation, progress_bar, backend, asked,
-                                model_options)
-        finally:
-            self._running = "cpu"
+            return self._path_trace(req, options, requested=req.model)
+        return self._render(req, model, options)
 
-    def _render(self, cam, size, model, quality, step, jitter, seed, bg, ert, amb, ph, radius, t_end,
-                light_resolution, table_quality, propagation, progress_bar, backend, asked, model_options):
+    def _render(self, req, model, model_options):
         t_start = time.perf_counter()
-        requested = model
-        grid = self.light_grid(light_resolution) if model != "emission_absorption" else None
-        model = self.resolve_model(model, grid, quality)
-        if requested == "auto" and model == "diffusion" and quality == "accurate":
-            model_options.setdefault("flux_limited", True)
-        if model not in MODELS:
-            raise ValueError(f"model {model!r} is not implemented yet; available: {MODELS}")
+        cam, size, step, radius, ph = req.camera, req.window_size, req.step, req.radius, req.phase
+        backend, progress_bar = req.backend, req.progress_bar
+        grid = self.light_grid(req.light_resolution) if model != "emission_absorption" else None
         w, h = size
         rad = np.zeros((h, w, 3), np.float32)
         alpha = np.zeros((h, w), np.float32)
-        lights = self.active_lights(grid) if model in ("single_scattering", "ambient_scattering", "diffusion") else ()
+        lights = self.active_lights(grid, backend) if MODEL_SPECS[model].lit else ()
         if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
             lights = ()
-        taus = [self.optical_depth(lt, grid) for lt in lights]
-        ball = self.ball_grid(radius) if model in ("ambient_occlusion", "ambient_scattering") else _DUMMY4
+        taus = [self.optical_depth(lt, grid, backend) for lt in lights]
+        ball = self.ball_grid(radius) if MODEL_SPECS[model].ball else _DUMMY4
         tab_args = (_DUMMY4, _DUMMY3, _DUMMY1, 0.0, 1.0)
         phi = _DUMMY4
         if model == "ambient_scattering" and lights:
-            tab = self.table(ph, radius, quality=table_quality, progress_bar=progress_bar)
+            tab = self.table(ph, radius, quality=req.table_quality, progress_bar=progress_bar)
             D, F_diff, a_nodes, lo_log, dlog = tab.lookup_args()
             tab_args = (_DUMMY4, D, a_nodes, lo_log, dlog)
-            if propagation == "tube":
-                phi = np.concatenate([self.front_depth(lt, grid, radius, tab) for lt in lights], axis=-1)
+            if req.propagation == "tube":
+                phi = np.concatenate([self.front_depth(lt, grid, radius, ph, req.table_quality) for lt in lights],
+                                     axis=-1)
             else:
                 phi = None  # the τ grids themselves, read at the ball's entry point
         diff = _DUMMY12
         if model == "diffusion" and lights:
             diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
-                                  progress_bar=progress_bar)
+                                  progress_bar=progress_bar, backend=backend)
+        seed, bg, ert, amb, t_end, jitter, asked = (req.seed, req.background, req.early_termination,
+                                                    req.ambient_radiance, req.t_end, req.jitter, req.asked)
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
             kind, vec, power = pack_lights(lights)
@@ -557,11 +583,11 @@ class Renderer:
                 self._run_tiles((MODEL_IDS[model],) + args, tail, rad, alpha, progress_bar, model)
         else:
             rad[:] = bg
-        meta = {"model": model, "requested_model": requested, "quality": quality, "step": step,
-                "window_size": size, "jitter": bool(jitter), "seed": seed, "backend": backend,
+        meta = {"model": model, "requested_model": req.model, "quality": req.quality, "step": step,
+                "window_size": size, "jitter": jitter, "seed": seed, "backend": backend,
                 "device_memory": self._device.nbytes if backend == "cuda" else 0,
                 "lights": len(lights), "radius": radius, "phase": repr(ph),
-                "propagation": propagation if model == "ambient_scattering" else None,
+                "propagation": req.propagation if model == "ambient_scattering" else None,
                 "flux_limited": bool(model_options.get("flux_limited", False)) if model == "diffusion" else None,
                 "diffusion_solver": getattr(self, "_diffusion_info", None) if model == "diffusion" else None,
                 "light_grid": None if grid is None else grid.shape,
@@ -569,21 +595,71 @@ class Renderer:
                 "early_termination": ert}
         return RenderResult(radiance=rad, alpha=alpha, camera=cam, metadata=meta)
 
-    def _path_trace(self, cam, size, ph, step, seed, bg, progress_bar, options, backend="cpu"):
+    def path_trace(self, camera=None, window_size=None, *, phase=None, samples_per_pixel=DEFAULT_SPP,
+                   target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
+                   batch=16, light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend=None,
+                   time_limit=None) -> RenderResult:
+        """Render the unbiased path-traced reference of this scene (no denoising; ``render(model=
+        "path_traced")`` is the same with the quality presets and the denoiser).
+
+        Parameters
+        ----------
+        camera : Camera, pyvista.Camera, pyvista.Plotter, dict or list, optional
+            PyVista's default isometric view of the volume when None.
+        window_size : (int, int), optional
+            ``(width, height)``; as :meth:`render`.
+        majorant_block : int, default: 8
+            Samples per majorant block (smaller: tighter majorants, more block crossings).
+        backend : {"auto", "cpu", "cuda"}, optional
+            The renderer's ``backend`` when None.
+        **others
+            As :func:`pv_ambient.stages.reference.path_trace` (``phase``, ``samples_per_pixel``,
+            ``target_error``, ``max_depth``, ``seed``, ``background``, ``progress_bar``, ``batch``,
+            ``light_clamp``, ``rr_depth``, ``time_limit``).
+
+        Returns
+        -------
+        RenderResult
+            ``radiance`` the per-pixel mean, ``alpha`` the fraction of primary rays that collided,
+            ``std_error`` the per-pixel standard error of the mean (``(H, W, 3)``; ``inf`` after a
+            single sample), and ``metadata`` with ``spp``, ``time``, ``seed``, ``max_depth``,
+            ``relative_error`` and the options.
+
+        Examples
+        --------
+        >>> import pv_ambient
+        >>> from pv_ambient import datasets
+        >>> r = pv_ambient.Renderer(datasets.cloud(n=16), lights=[pv_ambient.PointLight((2, 2, 2), 5.0)])
+        >>> res = r.path_trace(window_size=(8, 6), samples_per_pixel=4)
+        >>> res.radiance.shape, res.std_error.shape, res.metadata["spp"]
+        ((6, 8, 3), (6, 8, 3), 4)
+        """
         from ..stages.reference import path_trace
 
+        cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
+        block = check_int(majorant_block, "majorant_block", lo=1)
+        asked = self.backend if backend is None else check_choice(backend, "backend", BACKENDS)
+        backend = resolve_backend(asked)
+        out = path_trace(self.geometry, self.optics, self.majorant(block), self.lights, cam, size, block=block,
+                         phase=phase, samples_per_pixel=samples_per_pixel, target_error=target_error,
+                         max_depth=max_depth, seed=seed, background=background, progress_bar=progress_bar,
+                         batch=batch, light_clamp=light_clamp, rr_depth=rr_depth, backend=backend,
+                         time_limit=time_limit, device_cache=self.device_cache if backend == "cuda" else None)
+        return RenderResult(radiance=out.radiance, alpha=out.alpha, camera=cam, metadata=out.metadata,
+                            std_error=out.std_error)
+
+    def _path_trace(self, req, options, requested):
         denoise = options.get("denoise", False)
-        if denoise not in (True, False):
-            raise TypeError(f"denoise must be True or False, got {denoise!r}")
         if denoise:
             from ..stages.denoise import available, denoise_radiance
 
             if not available():
                 denoise_radiance(None)  # raises the ImportError that names the extra
-        res = path_trace(self, cam, size, phase=ph, samples_per_pixel=options.get("samples_per_pixel", 64),
-                         target_error=options.get("target_error"), max_depth=options.get("max_depth"), seed=seed,
-                         background=bg, progress_bar=progress_bar, light_clamp=0.25 * step, backend=backend,
-                         time_limit=options.get("time_limit"))
+        res = self.path_trace(req.camera, req.window_size, phase=req.phase,
+                              samples_per_pixel=options.get("samples_per_pixel", DEFAULT_SPP),
+                              target_error=options.get("target_error"), max_depth=options.get("max_depth"),
+                              seed=req.seed, background=req.background, progress_bar=req.progress_bar,
+                              light_clamp=0.25 * req.step, backend=req.backend, time_limit=options.get("time_limit"))
         if "time_limit" in options:
             res.metadata["requested_model"] = "auto"
             res.metadata["time_budget"] = options["time_limit"]
@@ -592,20 +668,33 @@ class Renderer:
         res.metadata["denoised"] = bool(denoise)
         if denoise:
             t = time.perf_counter()
-            from ..stages.denoise import albedo_guide
-
             # albedo guide (first-collision albedo × coverage, noise-free) and mean preservation:
             # measured in pv_ambient.stages.denoise; std_error stays the un-denoised one
-            res.radiance = denoise_radiance(res.radiance, albedo=albedo_guide(self, cam, size, step=step))
+            res.radiance = denoise_radiance(res.radiance, albedo=self.albedo_guide(req.camera, req.window_size,
+                                                                                   step=req.step))
             res.metadata["denoise_guide"] = "albedo"
             res.metadata["time_denoise"] = time.perf_counter() - t
             res.metadata["time_render"] += res.metadata["time_denoise"]
         return res
 
+    def albedo_guide(self, camera, window_size, *, step=None) -> np.ndarray:
+        """The albedo guide of :func:`pv_ambient.stages.denoise.denoise_radiance`: (H, W, 3) float32 in [0, 1].
+
+        The expected single-scattering albedo at each camera ray's first collision, premultiplied
+        by the ray's coverage, ``∫ T(t) σt(t) a(t) dt``: this scene's emission–absorption image
+        with its colour replaced by the scattering albedo (one ray cast on the renderer's backend with
+        ``step``, the ``"balanced"`` one when None; no background). This renderer's own cached
+        volumes are not touched. Noise-free, so OIDN takes it as a clean guide.
+        """
+        guide = self.with_optics(self.optics.albedo_as_colour())
+        res = guide.render(camera=camera, window_size=window_size, model="emission_absorption",
+                           step=self.default_step() if step is None else step, background=(0.0, 0.0, 0.0))
+        return np.clip(np.nan_to_num(res.radiance, nan=0.0), 0.0, 1.0).astype(np.float32)
+
     def _radius(self, radius, model="ambient_scattering"):
         h = float(np.max(self.geometry.spacing))
         if radius is None:
-            return DEFAULT_RADIUS_VOXELS.get(model, 4.0) * h
+            return MODEL_SPECS[model].radius_voxels * h
         if isinstance(radius, str):
             parts = radius.split()
             if len(parts) == 2 and parts[1] in ("voxel", "voxels"):
@@ -648,6 +737,39 @@ class Renderer:
         finally:
             if bar is not None:
                 bar.close()
+
+
+@dataclass(frozen=True)
+class RenderRequest:
+    """One render's inputs, checked (:meth:`Renderer.request`): what the stages and the kernels get.
+
+    Every field is a validated value (a :class:`~pv_ambient.Camera`, a ``(width, height)`` tuple,
+    floats, a phase function, arrays); ``options`` holds the model options (``MODEL_OPTIONS``)
+    with the preset's ``samples_per_pixel`` filled in, ``explicit`` the option names the caller gave.
+    """
+
+    camera: object
+    window_size: tuple
+    model: str
+    quality: str
+    step: float
+    jitter: bool
+    seed: int
+    background: np.ndarray
+    early_termination: float
+    ambient_radiance: float
+    phase: object
+    radius: float
+    t_end: np.ndarray
+    light_resolution: float | None
+    table_quality: str
+    propagation: str
+    progress_bar: bool
+    asked: str
+    backend: str
+    time_budget: float | None
+    options: dict = field(default_factory=dict)
+    explicit: frozenset = frozenset()
 
 
 def _ray_end(ray_end, size):

@@ -24,7 +24,7 @@ Two steps around the filter, both scene-independent:
 * **Albedo guide** (optional ``albedo=``). A volume has no surface albedo, but the expected
   scattering albedo at a camera ray's first collision, ``∫ T(t) σt(t) a(t) dt`` (premultiplied
   by coverage, in [0, 1], noise-free), plays its role: it is the emission–absorption image with
-  the colour replaced by the albedo, :func:`albedo_guide` (one ray cast). Measured as above with
+  the colour replaced by the albedo, :meth:`pv_ambient.Renderer.albedo_guide` (one ray cast). Measured as above with
   mean preservation: 4×4-block relative RMSE 0.355 → 0.331 (supernova), 0.257 → 0.186 (cloud),
   0.132 → 0.096 (CT phantom); SSIM 0.972 → 0.979, 0.948 → 0.978, 0.863 → 0.967; per-pixel
   relative RMSE 0.53 → 0.48, 0.32 → 0.22, 0.26 → 0.15 (un-denoised: 4 spp block 0.49 / 0.55 /
@@ -32,7 +32,7 @@ Two steps around the filter, both scene-independent:
   premultiplication (albedo / coverage) it measured slightly worse; a coverage-only guide
   (``1 − T``) did not help. No normal guide is used (a volume's gradient normal needs a ray
   cast of its own; not measured). The guide is used where the caller passes it:
-  ``denoise_radiance(res.radiance, albedo=albedo_guide(renderer, camera, window_size))``.
+  ``denoise_radiance(res.radiance, albedo=renderer.albedo_guide(camera, window_size))``.
 
 >>> import numpy as np
 >>> from pv_ambient.stages.denoise import available, preserve_mean
@@ -94,7 +94,7 @@ def preserve_mean(denoised, noisy) -> np.ndarray:
 def denoise_radiance(radiance, *, albedo=None, quality="high", mean_preserving=True) -> np.ndarray:
     """OIDN-denoised copy of linear HDR ``radiance`` (H, W, 3), float32.
 
-    ``albedo``: optional noise-free guide (H, W, 3) in [0, 1], e.g. :func:`albedo_guide`.
+    ``albedo``: optional noise-free guide (H, W, 3) in [0, 1], e.g. :meth:`pv_ambient.Renderer.albedo_guide`.
     ``mean_preserving``: rescale each channel so the image mean equals the noisy input's
     (:func:`preserve_mean`; see the module docstring for why and the measured effect).
     Non-finite and negative input values count as 0. Raises ``ImportError`` naming the optional
@@ -110,36 +110,3 @@ def denoise_radiance(radiance, *, albedo=None, quality="high", mean_preserving=T
         guides = {"albedo": alb, "clean_aux": True}
     out = np.asarray(pyoidn.denoise(rad, hdr=True, quality=quality, **guides), dtype=np.float32)
     return preserve_mean(out, rad) if mean_preserving else out
-
-
-def albedo_guide(renderer, camera, window_size, *, step=None) -> np.ndarray:
-    """The albedo guide of :func:`denoise_radiance`: (H, W, 3) float32 in [0, 1].
-
-    The expected single-scattering albedo at each camera ray's first collision, premultiplied
-    by the ray's coverage, ``∫ T(t) σt(t) a(t) dt``: ``renderer``'s emission–absorption image
-    with its colour replaced by the scattering albedo (one ray cast on the renderer's backend with
-    ``step``, the ``"balanced"`` one when None; no background). ``renderer``'s own cached
-    volumes are not touched. Noise-free, so OIDN takes it as a clean guide.
-    """
-    import copy
-    import dataclasses
-
-    from ..inputs.transfer import COL_ALBEDO, COL_COLOR, MODE_GRID
-
-    o = renderer.optics
-    if o.mode == MODE_GRID:  # physical TF: aux = albedo rgb, emission rgb; EA colour = emission
-        aux = o.aux.copy()
-        aux[..., 3:6] = o.aux[..., 0:3]
-        optics = dataclasses.replace(o, aux=aux)
-    else:
-        table = o.table.copy()
-        table[:, COL_COLOR:COL_COLOR + 3] = o.table[:, COL_ALBEDO:COL_ALBEDO + 3]
-        optics = dataclasses.replace(o, table=table)
-    r = copy.copy(renderer)
-    r.optics = optics
-    # only σt-derived caches may be shared (the colour changed); the CUDA device cache is keyed by
-    # host-array identity, so sharing it re-uses the σt field's upload and uploads the new table
-    r._cache = {k: v for k, v in renderer._cache.items() if isinstance(k, tuple) and k and k[0] == "majorant"}
-    res = r.render(camera=camera, window_size=window_size, model="emission_absorption",
-                   step=renderer.default_step() if step is None else step, background=(0.0, 0.0, 0.0))
-    return np.clip(np.nan_to_num(res.radiance, nan=0.0), 0.0, 1.0).astype(np.float32)

@@ -20,13 +20,13 @@ only when ``camera`` is None).
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from ..inputs.validation import check_int, check_real, check_rgb
 from ..backend import resolve_backend
 from ..inputs.lights import pack_lights
-from ..rendering.result import RenderResult
 
 #: Majorant block size (samples per axis) of the trackers.
 MAJORANT_BLOCK = 8
@@ -52,24 +52,44 @@ def relative_error(radiance, std_error, alpha):
     return se / mean
 
 
-def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_per_pixel=64, target_error=None,
-               max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False, batch=16,
-               light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend="cpu",
-               time_limit=None) -> RenderResult:
-    """Render the unbiased path-traced reference of a :class:`~pv_ambient.Renderer`'s scene.
+class Traced(NamedTuple):
+    """What :func:`path_trace` returns: the per-pixel mean ``radiance`` (H, W, 3), ``alpha`` the
+    fraction of primary rays that collided (an unbiased estimate of 1 − transmittance),
+    ``std_error`` the per-pixel standard error of the mean (``inf`` after a single sample), all
+    float32, and ``metadata`` (``spp``, ``time``, ``seed``, ``max_depth``, ``relative_error`` and
+    the options)."""
+
+    radiance: np.ndarray
+    alpha: np.ndarray
+    std_error: np.ndarray
+    metadata: dict
+
+
+def path_trace(geometry, optics, majorant, lights, camera, window_size, *, samples_per_pixel, block=MAJORANT_BLOCK,
+               phase=None, target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
+               batch=16, light_clamp=None, rr_depth=RR_DEPTH, backend="cpu", time_limit=None,
+               device_cache=None) -> Traced:
+    """Trace the unbiased reference image of a scene (:meth:`pv_ambient.Renderer.path_trace` is the
+    public entry point; it passes its cached arrays).
 
     Parameters
     ----------
-    renderer : pv_ambient.Renderer
-        The volume, its optical properties and its lights (``renderer.lights``).
-    camera : Camera, pyvista.Camera, pyvista.Plotter, dict or list, optional
-        PyVista's default isometric view of the volume when None.
-    window_size : (int, int), optional
-        ``(width, height)``; as :meth:`Renderer.render`.
+    geometry : pv_ambient.inputs.grid.GridGeometry
+        The grid's placement in the world.
+    optics : pv_ambient.inputs.transfer.Optics
+        The resolved optical properties.
+    majorant : numpy.ndarray
+        float32 upper bound of σt per ``block``³ samples (``pv_ambient._kernels.majorant``).
+    lights : sequence of PointLight or DirectionalLight
+    camera : pv_ambient.Camera
+    window_size : (int, int)
+        ``(width, height)``.
+    samples_per_pixel : int
+        Samples per pixel; with ``target_error`` the cap.
+    block : int, default: 8
+        Samples per majorant block of ``majorant``.
     phase : PhaseFunction, float or dict, optional
         Phase function (isotropic when None).
-    samples_per_pixel : int, default: 64
-        Samples per pixel; with ``target_error`` the cap.
     target_error : float, optional
         Stop once the relative standard error (:func:`relative_error`: mean standard error over
         mean radiance on the pixels that see the medium) is at most this; checked after each
@@ -88,55 +108,40 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         Samples per pixel per pass (the granularity of ``target_error`` and the progress bar).
     light_clamp : float, optional
         A point light's ``I/d²`` is evaluated at ``max(d, light_clamp)``; default a quarter of
-        the ``"balanced"`` ray step, as :meth:`Renderer.render` uses. The clamp bounds the
-        otherwise infinite variance of next-event estimation next to a point light inside the
-        medium.
-    majorant_block : int, default: 8
-        Samples per majorant block (smaller: tighter majorants, more block crossings).
+        the ``"balanced"`` ray step (half the smallest spacing), as the ray-cast models use. The
+        clamp bounds the otherwise infinite variance of next-event estimation next to a point
+        light inside the medium.
     rr_depth : int, default: 3
         Collisions before Russian roulette starts.
+    backend : {"cpu", "cuda"}, default: "cpu"
+        Where the paths are traced (:mod:`pv_ambient.backend`): the same per-path kernel and
+        counter-based random numbers on both, so a seed gives the same image up to rounding.
     time_limit : float, optional
         Stop adding samples (``samples_per_pixel`` stays the cap) once the next batch would end
         after this many seconds from the start; at least one sample is always taken. The first
         batch is a single sample, which times one pass.
-    backend : {"auto", "cpu", "cuda"}, default: "cpu"
-        Where the paths are traced (:mod:`pv_ambient.backend`): the same per-path kernel and
-        counter-based random numbers on both, so a seed gives the same image up to rounding.
+    device_cache : pv_ambient.backend.DeviceCache, optional
+        The scene's arrays resident on the GPU (``backend="cuda"``).
 
     Returns
     -------
-    RenderResult
-        ``radiance`` the per-pixel mean, ``alpha`` the fraction of primary rays that collided
-        (an unbiased estimate of 1 − transmittance), ``std_error`` the per-pixel standard error
-        of the mean (``(H, W, 3)``; ``inf`` after a single sample), and ``metadata`` with ``spp``, ``time``, ``seed``,
-        ``max_depth``, ``relative_error`` and the options.
-
-    Examples
-    --------
-    >>> import pv_ambient
-    >>> from pv_ambient import datasets
-    >>> from pv_ambient.stages.reference import path_trace
-    >>> r = pv_ambient.Renderer(datasets.cloud(n=16), lights=[pv_ambient.PointLight((2, 2, 2), 5.0)])
-    >>> res = path_trace(r, window_size=(8, 6), samples_per_pixel=4)
-    >>> res.radiance.shape, res.std_error.shape, res.metadata["spp"]
-    ((6, 8, 3), (6, 8, 3), 4)
+    Traced
     """
     from .._kernels.pathtrace import pathtrace_image
-    from ..inputs.camera import as_camera
     from ..inputs.phase import as_phase
 
-    cam, size = as_camera(camera, window_size=window_size, bounds=renderer.bounds)
+    cam, size = camera, window_size
     spp = check_int(samples_per_pixel, "samples_per_pixel", lo=1)
     batch = check_int(batch, "batch", lo=1)
     target = None if target_error is None else check_real(target_error, "target_error", lo=0.0, lo_open=True)
     depth = _NO_LIMIT if max_depth is None else check_int(max_depth, "max_depth", lo=1)
     seed = check_int(seed, "seed", lo=0)
     bg = check_rgb(background, "background")
-    block = check_int(majorant_block, "majorant_block", lo=1)
+    block = check_int(block, "block", lo=1)
     rr_depth = check_int(rr_depth, "rr_depth", lo=0)
     limit = None if time_limit is None else check_real(time_limit, "time_limit", lo=0.0)
     if light_clamp is None:
-        light_clamp = 0.25 * renderer.default_step("balanced")
+        light_clamp = 0.25 * 0.5 * float(np.min(geometry.spacing))
     light_clamp = check_real(light_clamp, "light_clamp", lo=0.0)
     ph = as_phase(phase)
     backend = resolve_backend(backend)
@@ -146,7 +151,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
     sum_rad = np.zeros((h, w, 3))
     sum_sq = np.zeros((h, w, 3))
     sum_hit = np.zeros((h, w))
-    geom = renderer.geometry
+    geom = geometry
     n = 0
     rel = float("inf")
     if geom.is_empty:
@@ -154,17 +159,17 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         sum_sq[:] = bg * bg * spp
         n = spp
     else:
-        o = renderer.optics
-        kind, vec, power = pack_lights(renderer.lights)
+        o = optics
+        kind, vec, power = pack_lights(lights)
         args = (cam.params(size), geom.world_to_index, geom.box_lo, geom.box_hi, o.mode, o.field, o.table,
-                o.lut_lo, o.lut_inv, o.aux, renderer.majorant(block), block, kind, vec, power, ph.kind, float(ph.g),
+                o.lut_lo, o.lut_inv, o.aux, majorant, block, kind, vec, power, ph.kind, float(ph.g),
                 light_clamp * light_clamp, bg, depth, rr_depth, seed)
         bar = None
         sums = None
         if backend == "cuda":
             from .. import backend as bk
 
-            bk.check_fits(renderer.device_cache, [a for a in args if isinstance(a, np.ndarray)],
+            bk.check_fits(device_cache, [a for a in args if isinstance(a, np.ndarray)],
                           sum_rad.nbytes + sum_sq.nbytes + sum_hit.nbytes)
             sums = bk.PathSums(h, w)
         if progress_bar:
@@ -186,7 +191,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
                 if sums is None:
                     pathtrace_image(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
                 else:
-                    bk.pathtrace(renderer.device_cache, args, n, s1, sums)
+                    bk.pathtrace(device_cache, args, n, s1, sums)
                 if bar is not None:
                     bar.update(s1 - n)
                 n = s1
@@ -208,11 +213,10 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         rel = relative_error(mean, se, alpha)
     meta = {"model": "path_traced", "spp": n, "time": time.perf_counter() - t_start, "seed": seed,
             "max_depth": max_depth, "target_error": target, "relative_error": rel, "window_size": size,
-            "phase": repr(ph), "lights": len(renderer.lights), "background": bg.tolist(),
+            "phase": repr(ph), "lights": len(lights), "background": bg.tolist(),
             "light_clamp": light_clamp, "majorant_block": block, "rr_depth": rr_depth, "batch": batch,
-            "time_limit": limit, "backend": backend, "device_memory": renderer._device.nbytes if backend == "cuda" else 0}
-    return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
-                        metadata=meta, std_error=se.astype(np.float32))
+            "time_limit": limit, "backend": backend, "device_memory": device_cache.nbytes if backend == "cuda" else 0}
+    return Traced(mean.astype(np.float32), alpha.astype(np.float32), se.astype(np.float32), meta)
 
 
 def _moments(sum_x, sum_x2, n):

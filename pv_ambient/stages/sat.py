@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from ..inputs.validation import _show, check_real, check_vector
+from ..inputs.validation import check_real, check_vector, show_value
 
 __all__ = ["BOX_EDGE_PER_RADIUS", "build_sat", "box_sum", "box_mean", "box_half_edges", "mean_extinction"]
 
@@ -45,7 +45,7 @@ def _check_sigma(sigma, name: str = "sigma", *, nonneg: bool = True) -> np.ndarr
     except Exception:  # noqa: BLE001 - anything numpy cannot read is a type error here
         raise TypeError(f"{name} must be a 3-D array of real numbers, got {type(sigma).__name__}") from None
     if arr.dtype == np.bool_ or arr.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be a 3-D array of real numbers, got dtype {arr.dtype} ({_show(sigma)})")
+        raise TypeError(f"{name} must be a 3-D array of real numbers, got dtype {arr.dtype} ({show_value(sigma)})")
     if arr.ndim != 3:
         raise ValueError(f"{name} must be a 3-D array (nx, ny, nz), got shape {arr.shape}")
     if arr.dtype not in (np.float32, np.float64):
@@ -192,7 +192,7 @@ def box_half_edges(spacing, radius) -> np.ndarray:
 def _check_spacing(spacing) -> np.ndarray:
     h = check_vector(spacing, "spacing", 3)
     if np.any(h <= 0):
-        raise ValueError(f"spacing must be three positive numbers, got {_show(spacing)}")
+        raise ValueError(f"spacing must be three positive numbers, got {show_value(spacing)}")
     return h
 
 

@@ -1,0 +1,100 @@
+"""The one table of render models, their options, the quality presets and the defaults.
+
+Everything that names a model — the renderer, the JSON scene format, the CLI, the PyVista face —
+reads it from here (docs/models.rst describes each model; the rule behind ``auto`` is
+:func:`pv_ambient.rendering.renderer.choose_model`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """One render model.
+
+    Attributes
+    ----------
+    name : str
+        The name users pass as ``model=``.
+    kernel_id : int or None
+        The ray-cast kernel's model id (``pv_ambient._kernels.raycast``); None for models that are
+        not a ray cast (``path_traced``) or stand for another (``auto``).
+    lit : bool
+        Whether the model uses the lights (and so builds light volumes).
+    ball : bool
+        Whether the model reads σ̄ over a ball of the ambient radius.
+    radius_voxels : float
+        Default ambient radius in units of the largest grid spacing (models with ``ball``).
+    title : str
+        A human title (plot panels, window titles).
+    """
+
+    name: str
+    kernel_id: int | None
+    lit: bool
+    ball: bool = False
+    radius_voxels: float = 4.0
+    title: str = ""
+
+
+#: The models, in the order documentation lists them. Ambient scattering's 8 voxels with
+#: Beer–Lambert fronts measured closest to the path-traced reference on the three scenes of
+#: ``benchmarks/trade.py`` (radii 2, 4, 8 × both propagation modes; README, "The trade").
+MODEL_TABLE = (
+    ModelSpec("emission_absorption", 0, lit=False, title="emission-absorption"),
+    ModelSpec("ambient_occlusion", 1, lit=False, ball=True, radius_voxels=4.0, title="ambient occlusion"),
+    ModelSpec("single_scattering", 2, lit=True, title="single scattering"),
+    ModelSpec("ambient_scattering", 3, lit=True, ball=True, radius_voxels=8.0, title="ambient scattering"),
+    ModelSpec("diffusion", 4, lit=True, title="diffusion"),
+    ModelSpec("path_traced", None, lit=True, title="path traced"),
+    ModelSpec("auto", None, lit=True, ball=True, radius_voxels=8.0, title="auto"),
+)
+MODEL_SPECS = {m.name: m for m in MODEL_TABLE}
+#: Every name ``model=`` accepts.
+ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
+#: The models that are implemented by a ray cast (``auto`` stands for one of them or the path tracer).
+RAY_CAST_MODELS = tuple(m.name for m in MODEL_TABLE if m.kernel_id is not None)
+#: The models whose images use the lights.
+LIT_MODELS = tuple(m.name for m in MODEL_TABLE if m.lit and m.name != "auto")
+
+#: Quality presets: what each sets when the knob is not given explicitly — ray step (smallest grid
+#: spacings), light-grid nodes per data spacing (None: the default of docs/ambient_scattering.rst §3,
+#: 2 where max σt·h > 0.3 else 1), preintegrated-table effort, and samples per pixel of
+#: ``path_traced``. Measured cost and error per preset: README, "Quality presets".
+QUALITY_PRESETS = {
+    "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16},
+    "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64},
+    "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256},
+}
+QUALITIES = tuple(QUALITY_PRESETS)
+DEFAULT_QUALITY = "balanced"
+#: Ray step per quality preset, in units of the smallest grid spacing.
+QUALITY_STEP = {q: p["step"] for q, p in QUALITY_PRESETS.items()}
+#: Samples per pixel of ``path_traced`` when neither the call nor a preset says otherwise.
+DEFAULT_SPP = QUALITY_PRESETS[DEFAULT_QUALITY]["samples_per_pixel"]
+
+#: Options that belong to particular models (accepted by every render call, used where they apply).
+MODEL_OPTIONS = frozenset({"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
+                           "target_error", "time_budget"})
+#: Every option a scene file may carry at top level besides the common ones.
+SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
+#: Light propagation modes of ambient scattering (docs/ambient_scattering.rst §3) and the default
+#: (the one measured closer to the path-traced reference).
+PROPAGATION_MODES = ("beer_lambert", "tube")
+DEFAULT_PROPAGATION = "beer_lambert"
+
+#: Optical depth above which a light counts as blocked (e^-700 underflows double precision soon after).
+TAU_OPAQUE = 700.0
+#: Block size (samples) of the majorant grid used for empty-space skipping.
+MAJORANT_BLOCK = 8
+#: Default early-ray-termination threshold on the transmittance.
+ERT = 1e-5
+#: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
+BUDGET_MAX_SPP = 4096
+
+
+def step_for(quality, spacing_min) -> float:
+    """The ray step (world units) of a quality preset for a grid whose smallest spacing is ``spacing_min``."""
+    return QUALITY_STEP[quality] * float(spacing_min)
