@@ -306,6 +306,21 @@ def test_as_phase_conversions():
         assert as_phase(p.to_dict()) == p
 
 
+def test_canonical_form_and_from_kind():
+    for p in (Isotropic(), HenyeyGreenstein(0.0), Schlick(0.0), as_phase(0.0)):
+        assert p.canonical() == (kp.ISOTROPIC, 0.0, True)
+    assert Rayleigh().canonical() == (kp.RAYLEIGH, 0.0, False)
+    assert HenyeyGreenstein(-0.3).canonical() == (kp.HENYEY_GREENSTEIN, -0.3, False)
+    assert Schlick(0.3).canonical() == (kp.SCHLICK, 0.3, False)
+    for p in (Isotropic(), Rayleigh(), HenyeyGreenstein(0.25), Schlick(-0.5)):
+        q = PhaseFunction.from_kind(p.kind, p.g)
+        assert q == p and type(q) is type(p)
+    with pytest.raises(ValueError, match="kind 7"):
+        PhaseFunction.from_kind(7)
+    with pytest.raises(ValueError, match="no anisotropy"):
+        PhaseFunction.from_kind(kp.RAYLEIGH, 0.5)
+
+
 def test_as_phase_errors_name_the_key_and_value():
     with pytest.raises(ValueError, match=r"kind.*'foo'"):
         as_phase({"kind": "foo"})

@@ -37,6 +37,7 @@ import pytest
 from scipy import integrate
 
 from pv_ambient.stages import preintegration as P
+from pv_ambient.stages.preintegration import store
 from pv_ambient._kernels import preint as K
 from pv_ambient._kernels._jit import driver, prange, scalar
 from pv_ambient._kernels.phase import HENYEY_GREENSTEIN, phase_eval, phase_sample
@@ -320,7 +321,7 @@ def test_lookup_reproduces_nodes_and_clamps():
 
 def test_shipped_default_serves_isotropic_without_compute(monkeypatch, tmp_path):
     monkeypatch.setenv("PV_AMBIENT_CACHE", str(tmp_path))
-    monkeypatch.setattr(P, "compute_table", lambda *a, **k: pytest.fail("computed instead of using the default"))
+    monkeypatch.setattr(store, "compute_table", lambda *a, **k: pytest.fail("computed instead of using the default"))
     t = P.get_table(None, (0.3, 0.92))
     assert t.quality == "balanced" and t.kind == 0 and t.D.shape[2] == 1
     assert t.a_nodes.tolist() == [0.2, 0.4, 0.6, 0.7, 0.8, 0.85, 0.9, 0.93]
@@ -342,11 +343,11 @@ def test_cache_round_trip_env_override_and_atomic_write(monkeypatch, tmp_path):
         assert os.path.getsize(src) > 0  # the complete file exists before it takes the final name
         real_replace(src, dst)
 
-    monkeypatch.setattr(P.os, "replace", spy)
+    monkeypatch.setattr(os, "replace", spy)
     first = P.get_table(0.37, (0.61, 0.69), quality="preview", progress_bar=True)
     files = list((tmp_path / "c").iterdir())
     assert len(files) == 1 and files[0].suffix == ".npz" and replaced and str(replaced[0][1]) == str(files[0])
-    monkeypatch.setattr(P, "compute_table", lambda *a, **k: pytest.fail("recomputed a cached table"))
+    monkeypatch.setattr(store, "compute_table", lambda *a, **k: pytest.fail("recomputed a cached table"))
     again = P.get_table(0.37, (0.61, 0.69), quality="preview")
     for name in ("D", "D_err", "F", "F_err", "F_diff", "a_nodes", "tau_nodes", "theta_nodes", "n_paths"):
         np.testing.assert_array_equal(getattr(first, name), getattr(again, name))
@@ -359,7 +360,7 @@ def test_failed_write_leaves_no_partial_file(monkeypatch, tmp_path):
     def boom(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr(P.os, "replace", boom)
+    monkeypatch.setattr(os, "replace", boom)
     with pytest.warns(UserWarning, match="could not write"):
         P.get_table(-0.2, (0.7, 0.75), quality="preview")
     assert not list(tmp_path.iterdir())

@@ -98,6 +98,50 @@ class PhaseFunction:
         """Mean cosine ``∫ cos θ p(cos θ) dω`` of the scattering angle (analytic)."""
         return 0.0
 
+    def canonical(self) -> tuple[int, float, bool]:
+        """``(kind, g, isotropic)`` with every isotropic phase function as one.
+
+        :class:`Isotropic`, and :class:`HenyeyGreenstein` or :class:`Schlick` with ``g = 0``,
+        all give ``(ISOTROPIC, 0.0, True)``; any other phase function its own ``(kind, g,
+        False)`` (:class:`Rayleigh` is symmetric but not isotropic). Stages that key results
+        on the phase function (the preintegrated tables) use this form.
+
+        Examples
+        --------
+        >>> from pv_ambient.inputs.phase import HenyeyGreenstein, Schlick
+        >>> HenyeyGreenstein(0.0).canonical(), Schlick(0.3).canonical()
+        ((0, 0.0, True), (2, 0.3, False))
+        """
+        kind, g = self._kind, float(self._g)
+        iso = kind == _k.ISOTROPIC or (kind in (_k.HENYEY_GREENSTEIN, _k.SCHLICK) and g == 0.0)
+        if iso:
+            return _k.ISOTROPIC, 0.0, True
+        return kind, g, False
+
+    @staticmethod
+    def from_kind(kind: int, g: float = 0.0) -> PhaseFunction:
+        """The phase function for a kernel ``kind`` and ``g`` (the inverse of ``(p.kind, p.g)``).
+
+        Raises
+        ------
+        ValueError
+            For an unknown kind, or ``g != 0`` for a kind without anisotropy.
+
+        Examples
+        --------
+        >>> from pv_ambient.inputs.phase import PhaseFunction
+        >>> PhaseFunction.from_kind(1, 0.6), PhaseFunction.from_kind(0)
+        (HenyeyGreenstein(g=0.6), Isotropic())
+        """
+        cls = _BY_KIND.get(int(kind))
+        if cls is None:
+            raise ValueError(f"unknown phase kind {kind!r}; expected one of {sorted(_BY_KIND)}")
+        if cls in _PARAMETRISED:
+            return cls(g)
+        if _check_g(g) != 0.0:
+            raise ValueError(f"phase kind {kind!r} takes no anisotropy, got g = {g!r}")
+        return cls()
+
     def eval(self, cos_theta):
         """Evaluate the phase function.
 
@@ -385,6 +429,8 @@ _KINDS = {
 }
 _KIND_NAMES = "'isotropic', 'hg' (or 'henyey_greenstein'), 'schlick', 'rayleigh'"
 _PARAMETRISED = (HenyeyGreenstein, Schlick)
+_BY_KIND = {_k.ISOTROPIC: Isotropic, _k.HENYEY_GREENSTEIN: HenyeyGreenstein, _k.SCHLICK: Schlick,
+            _k.RAYLEIGH: Rayleigh}
 
 
 def as_phase(spec=None) -> PhaseFunction:
