@@ -31,7 +31,7 @@ import pyvista as pv  # noqa: E402
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
 from pv_ambient.inputs.camera import default_camera  # noqa: E402
-from pv_ambient.pyvista.plotter import add_vtk_volume  # noqa: E402
+from pv_ambient.pyvista.vtk_bridge import add_vtk_volume  # noqa: E402
 from _timing import median_time  # noqa: E402
 
 

@@ -66,7 +66,7 @@ def scenes(n):
 def vtk_time(grid, r, cam, size, step, repeats):
     import pyvista as pv
 
-    from pv_ambient.pyvista.plotter import add_vtk_volume
+    from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
 
     pl = pv.Plotter(off_screen=True, window_size=size)
     add_vtk_volume(pl, grid, r, step=step, mapper="fixed_point")

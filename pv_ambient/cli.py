@@ -52,7 +52,7 @@ def _cmd_demo(args) -> int:
 
     from . import datasets
     from .inputs.lights import PointLight
-    from .pyvista.plotter import compare
+    from .pyvista.compare import compare
     from .rendering.renderer import Renderer
 
     pv.OFF_SCREEN = True

@@ -28,13 +28,10 @@ import pv_ambient as pa
 from pv_ambient import datasets
 
 pv = pytest.importorskip("pyvista")
-from pv_ambient.pyvista.plotter import (  # noqa: E402
-    add_vtk_volume,
-    composite_over_geometry,
-    display_to_linear,
-    ray_distance_from_depth,
-    texture_image,
-)
+from pv_ambient.pyvista.display import display_to_linear  # noqa: E402
+from pv_ambient.pyvista.geometry import composite_over_geometry, ray_distance_from_depth  # noqa: E402
+from pv_ambient.pyvista.plane import texture_image  # noqa: E402
+from pv_ambient.pyvista.vtk_bridge import add_vtk_volume  # noqa: E402
 
 SIZE = (160, 120)
 CAMERA = pa.Camera((2.5, -3.5, 1.5), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=30.0)

@@ -26,7 +26,7 @@ import pv_ambient as pa
 from pv_ambient import datasets
 
 pv = pytest.importorskip("pyvista")
-from pv_ambient.pyvista.plotter import add_vtk_volume  # noqa: E402
+from pv_ambient.pyvista.vtk_bridge import add_vtk_volume  # noqa: E402
 
 SIZE = (256, 256)
 

@@ -23,7 +23,7 @@ import pyvista as pv
 
 import pv_ambient as pa
 from pv_ambient import datasets
-from pv_ambient.pyvista.plotter import add_vtk_volume
+from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
 
 pv.OFF_SCREEN = True
 OUT = os.environ.get("PV_AMBIENT_EXAMPLES_OUT", ".")

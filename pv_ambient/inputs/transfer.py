@@ -308,6 +308,12 @@ class TransferFunction:
         tf._physical = (sigma_t, albedo, emission)
         return tf
 
+    @property
+    def physical_arrays(self):
+        """``(sigma_t, albedo, emission)``: the array names of a :meth:`physical` TF; None for the
+        other kinds."""
+        return self._physical
+
     @classmethod
     def from_dict(cls, d: dict) -> "TransferFunction":
         """The JSON scene form (``"kind"``: ``"colormap"`` or ``"physical"``)."""

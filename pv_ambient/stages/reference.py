@@ -226,3 +226,80 @@ def _moments(sum_x, sum_x2, n):
         return mean, np.full_like(mean, np.inf)
     var = np.maximum(sum_x2 - sum_x * mean, 0.0) / (n - 1)
     return mean, np.sqrt(var / n)
+
+
+class Accumulator:
+    """Running per-pixel sums of radiance, its square and alpha over passes of a progressive
+    render: the mean and its standard error of all samples so far, as :func:`path_trace` keeps
+    them within one call.
+
+    Each pass is given as its own estimate (mean radiance, standard error of the mean, alpha)
+    over ``samples`` samples per pixel; its sums are recovered as ``Σx = n·mean``,
+    ``Σx² = (n − 1)·s² + n·mean²`` with the sample variance ``s² = n·se²`` (0 where the error
+    is not finite) and ``Σhit = n·alpha``.
+
+    Attributes
+    ----------
+    sum_radiance, sum_square, sum_alpha : numpy.ndarray or None
+        float64 sums of ``x``, ``x²`` and the hit indicator (None before the first pass).
+    samples : int
+        Samples per pixel so far.
+    passes : int
+        Passes added so far.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pv_ambient.stages.reference import Accumulator
+    >>> acc = Accumulator()
+    >>> acc.add(np.array([1.0]), np.array([0.0]), np.array([1.0]), samples=2)
+    >>> acc.add(np.array([3.0]), np.array([0.0]), np.array([1.0]), samples=2)
+    >>> acc.samples, acc.passes, acc.mean.tolist(), acc.alpha.tolist()
+    (4, 2, [2.0], [1.0])
+    >>> round(float(acc.std_error[0]), 6)
+    0.57735
+    """
+
+    def __init__(self):
+        self.sum_radiance = None
+        self.sum_square = None
+        self.sum_alpha = None
+        self.samples = 0
+        self.passes = 0
+
+    def add(self, radiance, std_error, alpha, samples):
+        """Add one pass: its per-pixel mean ``radiance``, ``std_error`` of that mean and ``alpha``
+        over ``samples`` samples per pixel."""
+        n = int(samples)
+        mean = np.asarray(radiance).astype(np.float64)
+        se = np.asarray(std_error).astype(np.float64)
+        var_n = np.where(np.isfinite(se), se * se * n, 0.0)  # sample variance
+        s1, s2, hit = n * mean, (n - 1) * var_n + n * mean * mean, n * np.asarray(alpha).astype(np.float64)
+        if self.sum_radiance is None:
+            self.sum_radiance, self.sum_square, self.sum_alpha = s1, s2, hit
+        else:
+            self.sum_radiance += s1
+            self.sum_square += s2
+            self.sum_alpha += hit
+        self.samples += n
+        self.passes += 1
+
+    @property
+    def mean(self):
+        """float64 mean radiance of all samples so far."""
+        return _moments(self.sum_radiance, self.sum_square, self.samples)[0]
+
+    @property
+    def std_error(self):
+        """float64 standard error of :attr:`mean` (``inf`` below two samples)."""
+        return _moments(self.sum_radiance, self.sum_square, self.samples)[1]
+
+    @property
+    def alpha(self):
+        """float64 fraction of samples whose primary ray hit the medium."""
+        return self.sum_alpha / self.samples
+
+    @property
+    def relative_error(self):
+        """The image's :func:`relative_error` of all samples so far."""
+        return relative_error(self.mean, self.std_error, self.alpha)
