@@ -10,6 +10,7 @@ Usage: ``python benchmarks/diffusion_floor.py [smoke_plume,marschner_lobb,cloud_
 """
 import sys, time, numpy as np
 import pv_ambient as pa, pv_ambient.stages.diffusion as dm
+from pv_ambient.stages.diffusion import solve as dsolve
 from pv_ambient import datasets, metrics
 size=(64,64)
 def scene(name):
@@ -34,12 +35,12 @@ for name in names.split(","):
     chord=dm.mean_chord(tuple(g.dimensions), g.spacing)
     diag=float(np.linalg.norm((np.array(g.dimensions)-1)*np.array(g.spacing)))
     for label, rel in (("default 1/chord",1.0),("old 0.01/diag",0.01*chord/diag),("1/diag", chord/diag),("10/diag",10*chord/diag)):
-        dm.SIGMA_FLOOR_REL=rel
+        dsolve.SIGMA_FLOOR_REL=rel
         r2=pa.Renderer(g, transfer_function=tf, lights=lights)
         for fl in (False,True):
             img=r2.render(camera=cam, window_size=size, model="diffusion", phase=ph, flux_limited=fl).radiance
             print("   %-16s %-5s block %.3f bias %+.3f"%(label, "FL" if fl else "plain", metrics.block_relative_rmse(img,ref.radiance,mask), metrics.relative_bias(img,ref.radiance,mask)), flush=True)
-    dm.SIGMA_FLOOR_REL=1.0
+    dsolve.SIGMA_FLOOR_REL=1.0
     for m in ("single_scattering","ambient_scattering"):
         img=r.render(camera=cam, window_size=size, model=m, phase=ph).radiance
         print("   %-22s block %.3f bias %+.3f"%(m, metrics.block_relative_rmse(img,ref.radiance,mask), metrics.relative_bias(img,ref.radiance,mask)), flush=True)

@@ -10,6 +10,7 @@ import pytest
 from scipy.special import expn
 
 from pv_ambient.stages import diffusion as dm
+from pv_ambient.stages.diffusion import solve as dsolve, system as dsystem
 from pv_ambient.inputs.grid import make_geometry
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
@@ -306,7 +307,7 @@ def test_flux_limited_loose_passes_match_tight_ones(monkeypatch):
     difference 2e-5, iterations 137 → 86."""
     sig, alb, Q0, Q1, h = _sphere_scene(n=24, g=0.6)
     loose = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
-    monkeypatch.setattr(dm, "INNER_REL", 1e-6)  # every pass to tol
+    monkeypatch.setattr(dsolve, "INNER_REL", 1e-6)  # every pass to tol
     tight = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
     assert loose.converged and tight.converged and loose.residual <= 1e-6
     assert np.linalg.norm(loose.phi - tight.phi) / np.linalg.norm(tight.phi) < 0.2 * 1e-2
@@ -322,7 +323,7 @@ def test_flux_limited_channels_warm_start_each_other(monkeypatch):
     iterations 86 → 70, 84 → 57, 181 → 108, φ within 0.9 / 0.8 / 0.3 %."""
     sig, alb, Q0, Q1, h = _sphere_scene(n=24, g=0.6)
     warm = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
-    monkeypatch.setattr(dm, "WARM_CHANNELS", False)
+    monkeypatch.setattr(dsolve, "WARM_CHANNELS", False)
     cold = dm.solve_diffusion(sig, alb, 0.6, (h, h, h), Q0, Q1, flux_limited=True)
     assert warm.converged and cold.converged and warm.residual <= 1e-6
     for c in range(3):
@@ -364,7 +365,7 @@ def test_limiter_kernel_against_numpy(with_q1):
         Q1 = 0.1 * rng.normal(size=shape + (3,)) if with_q1 else None
         h = (0.1, 0.2, 0.15)
         grid = SimpleNamespace(shape=shape, h=np.array(h))
-        got = dm._flux_limited_D(grid, phi, sig_p, Q1, 50.0, 1e-7)
+        got = dsolve.flux_limited_D(grid, phi, sig_p, Q1, 50.0, 1e-7)
         want = _lp_numpy(phi, sig_p, Q1, h, 50.0, 1e-7)
         assert np.all(np.isfinite(got))
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
@@ -398,11 +399,11 @@ def _faces_numpy(D, Q1, grid):
 def test_assembly_kernel_against_numpy(association, with_q1):
     rng = np.random.default_rng(5)
     for shape in ((9, 7, 5), (6, 1, 4)):
-        grid = dm._Grid(shape, (0.3, 0.2, 0.25), association)
+        grid = dsystem.FVGrid(shape, (0.3, 0.2, 0.25), association)
         D = 0.01 + rng.random(shape)
         Q1 = rng.normal(size=shape + (3,)) if with_q1 else None
         Q0 = rng.random(shape)
-        w, c, b = dm._system(grid, np.zeros(shape), D, Q0, Q1)
+        w, c, b = dsystem.assemble(grid, np.zeros(shape), D, Q0, Q1)
         w_ref, db_ref = _faces_numpy(D, Q1, grid)
         for a in range(3):
             np.testing.assert_allclose(w[a], w_ref[a], rtol=1e-13, atol=0)
@@ -600,6 +601,16 @@ def test_camera_source_packed_and_at():
     assert np.allclose(dm.camera_source(1.0, 2.0, np.ones(3), 0.0, np.array([1.0, 0, 0])), 2.0 / (4 * math.pi))
 
 
+def _solve_for_light(r, light, g, **options):
+    """``solve_for_light`` with the arrays and records a Renderer gives it (as ``Renderer.diffusion``)."""
+    grid = r.light_grid()
+    lights = light if isinstance(light, list) else [light]
+    tau = [r.optical_depth(lt, grid) for lt in lights]
+    medium = dm.DiffusionMedium.from_arrays(r.optics.sigma_grid(), r.optics.albedo_grid())
+    return dm.solve_for_light(light, g, medium=medium, geometry=r.geometry, tau=tau if isinstance(light, list) else tau[0],
+                              light_grid=grid, **options)
+
+
 def test_solve_for_light_on_a_renderer():
     """The glue the ray caster will call: optical depth → E_d → source → solve, on a real grid."""
     pytest.importorskip("pyvista")
@@ -609,13 +620,13 @@ def test_solve_for_light_on_a_renderer():
     st = datasets.suggested_style("cloud")
     r = pa.Renderer(datasets.cloud(n=20), transfer_function=pa.TransferFunction(**st, albedo=0.9))
     light = PointLight((0.1, 0.2, 0.3), 2.0)
-    sol = dm.solve_for_light(r, light, 0.3)
+    sol = _solve_for_light(r, light, 0.3)
     assert sol.converged and sol.phi.shape == r.optics.sigma_grid().shape + (3,)
     assert np.all(np.isfinite(sol.phi)) and sol.phi.max() > 0
     P = sol.power
     assert np.all(np.abs((P["absorbed"] + P["escaped"]) / P["source"] - 1) < 1e-6)
     # two lights: one solve of the summed sources equals the sum of the per-light solutions
     other = DirectionalLight((0.0, 0.6, -0.8), (0.5, 1.0, 0.2))
-    both = dm.solve_for_light(r, [light, other], 0.3, tol=1e-9)
-    parts = [dm.solve_for_light(r, lt, 0.3, tol=1e-9) for lt in (light, other)]
+    both = _solve_for_light(r, [light, other], 0.3, tol=1e-9)
+    parts = [_solve_for_light(r, lt, 0.3, tol=1e-9) for lt in (light, other)]
     assert np.allclose(both.phi, parts[0].phi + parts[1].phi, rtol=1e-5, atol=1e-7 * both.phi.max())

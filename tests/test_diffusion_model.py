@@ -56,6 +56,7 @@ def test_vacuum_floor_against_path_tracing(monkeypatch):
 
     import pv_ambient as pa
     from pv_ambient.stages import diffusion as dm
+    from pv_ambient.stages.diffusion import solve as dsolve
     from pv_ambient import metrics
 
     n = 24
@@ -76,9 +77,9 @@ def test_vacuum_floor_against_path_tracing(monkeypatch):
     noise = np.sqrt(np.mean(ref.std_error[mask] ** 2) / 16) / np.mean(ref.radiance[mask])
     assert noise < 0.03
     err = {}
-    for name, rel in (("default", dm.SIGMA_FLOOR_REL), ("conductor", 0.01 * dm.mean_chord((n,) * 3, (2 / (n - 1),) * 3)
+    for name, rel in (("default", dsolve.SIGMA_FLOOR_REL), ("conductor", 0.01 * dm.mean_chord((n,) * 3, (2 / (n - 1),) * 3)
                                                       / (2 * math.sqrt(3)))):
-        monkeypatch.setattr(dm, "SIGMA_FLOOR_REL", rel)
+        monkeypatch.setattr(dsolve, "SIGMA_FLOOR_REL", rel)
         img = make().render(camera=cam, window_size=size, model="diffusion", quality="preview").radiance
         err[name] = (metrics.block_relative_rmse(img, ref.radiance, mask), metrics.relative_bias(img, ref.radiance, mask))
     assert err["default"][0] < 0.25 and abs(err["default"][1]) < 0.15, err
@@ -97,9 +98,12 @@ def test_flux_limited_converges_with_a_light_inside():
 
     r, cam, g, options = scaled_scene("outside", 1.0)
     inside = r.lights[0]
+    grid = r.light_grid()
+    args = dict(medium=dm.DiffusionMedium.from_arrays(r.optics.sigma_grid(), r.optics.albedo_grid()),
+                geometry=r.geometry, tau=r.optical_depth(inside, grid), light_grid=grid)
     with pytest.warns(UserWarning, match="did not converge"):
-        dm.solve_for_light(r, inside, 0.6, flux_limited=True, max_outer=10)
+        dm.solve_for_light(inside, 0.6, **args, flux_limited=True, max_outer=10)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        sol = dm.solve_for_light(r, inside, 0.6, flux_limited=True)
+        sol = dm.solve_for_light(inside, 0.6, **args, flux_limited=True)
     assert sol.converged

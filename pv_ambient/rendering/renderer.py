@@ -318,11 +318,14 @@ class Renderer:
         (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
         relight re-solves only the light that changed (warm-started from its previous solution).
 
-        One solve of the summed sources would cost less for the first frame (trade CT phantom,
-        two lights, 64³: 0.66× the per-light time for plain diffusion, identical to 1e-8; 0.45×
-        for flux-limited, which is not linear: 1.7 % different), but every relight would then
-        re-solve all lights."""
-        from ..stages.diffusion import solve_for_light
+        One solve of the summed sources would cost less for the first frame (identical for plain
+        diffusion; flux-limited diffusion is not linear, so it differs slightly), but every relight
+        would then re-solve all lights (figures: ``benchmarks/results/diffusion_notes.md``).
+
+        σt and albedo are checked and converted once per scene (a ``DiffusionMedium`` cached
+        under ``("diffusion_medium",)``); each light's optical depth comes from
+        :meth:`optical_depth` on the light grid of ``grid``'s factor."""
+        from ..stages.diffusion import DiffusionMedium, solve_for_light
 
         g = float(phase.mean_cosine)
         total = None
@@ -333,8 +336,14 @@ class Renderer:
             key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
             if key not in self.cache:
                 t = time.perf_counter()
-                sol = solve_for_light(self, lt, g, light_resolution=grid.factor, flux_limited=bool(flux_limited),
-                                      progress_bar=progress_bar)
+                medium = self._cache.get(("diffusion_medium",))
+                if medium is None:
+                    medium = DiffusionMedium.from_arrays(self.optics.sigma_grid(), self.optics.albedo_grid())
+                    self._cache[("diffusion_medium",)] = medium
+                lgrid = self.light_grid(grid.factor)
+                sol = solve_for_light(lt, g, medium=medium, geometry=self.geometry,
+                                      tau=self.optical_depth(lt, lgrid), light_grid=lgrid,
+                                      flux_limited=bool(flux_limited), progress_bar=progress_bar)
                 packed = sol.packed()
                 if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
                                                                                        packed[..., 8:12]):

@@ -1,0 +1,448 @@
+"""The diffusion solve (DESIGN §4b.2–3): P1 or flux-limited diffusion per channel, and the
+stage's per-light entry point.
+
+Vacuum floor
+------------
+Where σt' → 0 (empty space) D = 1/(3σt') diverges: the fluence would level out instantly across
+every empty region, as if light crossed it at once and spread over all its walls alike. Light
+that crosses a void streams in straight lines and lands, on average, one chord length away, so
+empty space is given the transport length of the void it fills: σt' is floored at
+``sigma_floor``, by default ``1/ℓ̄`` with ``ℓ̄`` the mean chord length of the medium's box
+(Cauchy's ``4V/S`` for a box; ``πA/P`` when one axis has a single node, twice the thickness
+when two do), the scale of the largest void the box can hold. Equivalently D ≤ ℓ̄/3 (the
+diffusion coefficient of a medium whose mean free path is ℓ̄). The floor enters only D, never
+σa, and it also raises σt' in media thinner than one optical depth per mean chord — media that
+light crosses mostly unscattered, where diffusion's local picture fails just as in a void.
+Too small a floor carries light around a hollow interior and darkens its lit side; too large a
+floor holds light back in thin fringes. A larger floor also conditions the matrix better.
+
+Flux-limited diffusion
+----------------------
+``flux_limited=True``: ``D = λ(R)/σt'`` with Levermore–Pomraning
+``λ(R) = (coth R − 1/R)/R`` and ``R = |∇φ − 3 Q1| / (σt' φ)`` (the gradient that drives F, so
+``|F| = λ R φ ≤ φ``), evaluated at the nodes from the previous φ (central differences, lagged
+coefficients). The first pass is plain diffusion, then up to ``max_outer`` re-solves, each warm
+started; they stop when σs·φ changes by less than ``outer_tol`` (relative 2-norm). The plain
+lagged iteration contracts by only ≈ 0.8 per pass where the medium is optically thin, so the
+passes are accelerated by Anderson mixing of depth 2. The first pass and the lagged passes are
+solved only to ``INNER_REL·outer_tol`` (1e−3): the change they measure is ten times larger, and
+the last pass is then finished to ``tol`` (same D), so ``residual`` and ``power`` hold as for
+plain diffusion. A warm start — ``x0`` (a relight) or, for the second and later channels, the
+previous channel's solution scaled by the source power — replaces the plain first pass: the
+lagged passes start from it. Where σt' = 0 the limiter gives ``D = φ/|∇φ − 3Q1|`` (free
+streaming, at most the vacuum floor's ℓ̄/3).
+
+A solve that reaches ``maxiter`` (or ``max_outer``) first warns (``UserWarning``).
+
+Measured errors against path tracing for several floors, iteration counts and the limiter's
+passes: ``benchmarks/results/diffusion_notes.md``.
+
+This module imports numpy, the input checks and the other modules of this package only (no
+Renderer, no pyvista or vtk): the caller computes the light's optical depth.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+
+import numpy as np
+
+from ...inputs.validation import check_choice, check_int, check_real
+from .medium import DiffusionMedium, as_finite_array, check_mean_cosine
+from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
+from .sources import direct_irradiance, source_in_medium
+from .solution import DiffusionSolution
+from .system import NO_Q1, FVGrid, assemble, check_boundary, node_flux, power_balance, reflects
+
+__all__ = ["flux_limited_D", "mean_chord", "solve_diffusion", "solve_for_light", "solve_in_medium"]
+
+#: Relative residual at which conjugate gradients stop, by default.
+DEFAULT_TOL = 1e-6
+#: Default iteration caps per preconditioner.
+DEFAULT_MAXITER = {"multigrid": 200, "jacobi": 20000}
+#: Default vacuum floor of σt' inside D, in units of 1/(mean chord length of the box).
+SIGMA_FLOOR_REL = 1.0
+#: History depth of the Anderson mixing that accelerates the flux limiter's lagged passes.
+ANDERSON_DEPTH = 2
+#: Start the flux limiter's passes from a warm start (relight, previous channel) directly.
+WARM_CHANNELS = True
+#: The flux limiter's lagged solves stop at this fraction of ``outer_tol`` (the last one at ``tol``).
+INNER_REL = 0.1
+#: Smallest diffusion coefficient the flux limiter may produce, in units of the smallest spacing.
+D_MIN_REL = 1e-6
+
+
+def flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
+    """Levermore–Pomraning D = λ(R)/σt' at the nodes, R = |∇φ − 3Q1|/(σt' φ), clipped to
+    [d_min, d_max] (d_max: the vacuum floor's D); ∇φ as ``numpy.gradient`` (central differences,
+    one-sided on the box faces). The kernel: ``_kernels.diffusion.limiter_coefficients``."""
+    from ..._kernels.diffusion import limiter_coefficients
+
+    out = np.empty(grid.shape)
+    q1 = NO_Q1 if Q1 is None else np.ascontiguousarray(Q1, np.float64)
+    hx, hy, hz = (float(v) for v in grid.h)
+    limiter_coefficients(np.ascontiguousarray(phi, np.float64), np.ascontiguousarray(sig_p, np.float64), q1,
+                             Q1 is not None, hx, hy, hz, float(d_max), float(d_min), out)
+    return out
+
+
+def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited,
+                   max_outer, outer_tol, d_max, d_min, bar):
+    """One channel: (phi float64, D used, iterations, largest residual, outer passes, whether the
+    flux limiter's passes converged)."""
+    w, c, b = assemble(grid, sigma_a, D0, Q0, Q1)
+    levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
+    # The flux limiter's passes only need each lagged solve well below the change they measure
+    # (outer_tol): they run to INNER_REL·outer_tol, and the last one is finished to tol.
+    loose = max(tol, INNER_REL * outer_tol) if flux_limited else tol
+    if flux_limited and x0 is not None and WARM_CHANNELS and np.any(x0 > 0):
+        # a warm start (a relight, or another channel) is already near the limited solution:
+        # the lagged passes start from it instead of from a plain-diffusion solve
+        phi, its, res = np.maximum(np.asarray(x0, np.float64), 0.0), 0, math.inf
+    else:
+        phi, its, res = pcg(levels, b, x0, loose, maxiter, preconditioner, bar)
+    D = D0
+    outer = 0
+    outer_ok = True
+    if flux_limited:
+        # Lagged coefficients: φ_{k+1} = S(φ_k), the solve with D(φ_k), accelerated by Anderson
+        # mixing of depth ANDERSON_DEPTH (the plain lagged iteration contracts by only ≈ 0.8 per
+        # pass in optically thin regions). The change that ends the passes is weighted by σs:
+        # what the camera pass sees.
+        weight = sigma_s if np.any(sigma_s > 0) else np.ones(grid.shape)
+        xs, gs = [], []
+        x = phi
+        outer_ok = False
+        for outer in range(1, max_outer + 1):
+            D = flux_limited_D(grid, x, sig_p, Q1, d_max, d_min)
+            w, c, b = assemble(grid, sigma_a, D, Q0, Q1)
+            levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
+            phi, k, res = pcg(levels, b, x, loose, maxiter, preconditioner, bar)
+            its += k
+            change = float(np.linalg.norm(weight * (phi - x))) / max(float(np.linalg.norm(weight * phi)), 1e-300)
+            if change < outer_tol:
+                outer_ok = True
+                break
+            xs.append(x)
+            gs.append(phi)
+            del xs[:-(ANDERSON_DEPTH + 1)], gs[:-(ANDERSON_DEPTH + 1)]
+            x = _anderson(xs, gs) if len(xs) > 1 else phi
+    if loose > tol and res > tol:  # finish the last solve (same D) to the stated tolerance
+        phi, k, res = pcg(levels, b, phi, tol, maxiter, preconditioner, bar)
+        its += k
+    worst = res
+    return phi, D, its, worst, outer, outer_ok
+
+
+def _anderson(xs, gs):
+    """Anderson mixing: the combination of the last images S(x_i) = gs[i] whose residuals
+    f_i = gs[i] − xs[i] combine to the least 2-norm; clamped at 0 (φ ≥ 0 for the limiter)."""
+    f = [g - x for x, g in zip(xs, gs)]
+    dF = np.stack([(f[i + 1] - f[i]).ravel() for i in range(len(f) - 1)], axis=1)
+    dG = np.stack([(gs[i + 1] - gs[i]).ravel() for i in range(len(gs) - 1)], axis=1)
+    A = dF.T @ dF
+    A += 1e-12 * np.trace(A) * np.eye(A.shape[0])
+    try:
+        gamma = np.linalg.solve(A, dF.T @ f[-1].ravel())
+    except np.linalg.LinAlgError:  # pragma: no cover - degenerate history: plain lagged step
+        return gs[-1]
+    return np.maximum((gs[-1].ravel() - dG @ gamma).reshape(gs[-1].shape), 0.0)
+
+
+def mean_chord(shape, spacing, association="point"):
+    """Mean chord length of the medium's box: the average distance a straight line crossing it
+    travels inside (isotropic, uniformly placed lines; Cauchy's formula).
+
+    ``4V/S`` for a box; axes with a single node are infinite (a uniform problem along them):
+    ``πA/P`` for a rectangle (2D), twice the thickness for a slab (1D); for a single node, its
+    largest spacing. The box is ``(n − 1)·h`` per axis for point data and ``n·h`` for cell data.
+
+    >>> round(mean_chord((65, 65, 65), (1 / 32,) * 3), 6)  # a 2-unit cube: 4V/S = 2a/3
+    1.333333
+    """
+    n = np.asarray(shape)
+    sp = np.asarray(spacing, np.float64)
+    ext = (n - (1 if association == "point" else 0)) * sp
+    e = ext[n > 1]
+    if e.size == 3:
+        a, b, c = e
+        return float(2.0 * a * b * c / (a * b + b * c + c * a))
+    if e.size == 2:
+        return float(math.pi * e[0] * e[1] / (2.0 * (e[0] + e[1])))
+    if e.size == 1:
+        return float(2.0 * e[0])
+    return float(np.max(sp))
+
+
+def solve_diffusion(sigma_t, albedo, g, spacing, Q0, Q1=None, **options):
+    """Solve P1 diffusion for the multiply-scattered light (DESIGN §4b.2–3).
+
+    ``∇·F + σa φ = Q0``, ``F = −D∇φ + 3DQ1``, ``D = 1/(3σt')``, ``σt' = σa + σs(1 − g)``;
+    Marshak vacuum boundary ``F·n = φ/2`` on the box faces. Discretisation: :mod:`.system`;
+    solver: :mod:`.multigrid` and this module's docstring. Channels are solved one by one (σa
+    differs per channel); channels whose albedo is equal share the operator, and channels whose
+    sources are also proportional share the solve (the answer is scaled).
+
+    Parameters
+    ----------
+    sigma_t : array (nx, ny, nz)
+        Extinction at the data samples (1/world unit), ≥ 0.
+    albedo : array (nx, ny, nz) or (nx, ny, nz, C)
+        Single-scattering albedo in [0, 1] (one grey channel, or one per channel).
+    g : float, array (nx, ny, nz) or PhaseFunction
+        Mean cosine of the phase function, in (−1, 1).
+    spacing : sequence of 3 floats
+        World length of one index step per axis.
+    Q0 : array (nx, ny, nz) or (nx, ny, nz, C)
+        Isotropic source, W/m³, averaged over each control volume.
+    Q1 : array (nx, ny, nz, 3) or (nx, ny, nz, C, 3), optional
+        First-moment source, W/m³, world components (zero when None).
+
+    Other Parameters
+    ----------------
+    flux_limited : bool, default: False
+        Levermore–Pomraning flux limiter with lagged coefficients.
+    tol : float, default: 1e-6
+        Stop when ``‖b − Aφ‖₂/‖b‖₂ ≤ tol`` (the finite-volume system in W per control volume).
+    maxiter : int, optional
+        Iteration cap per solve (200 with multigrid, 20000 with Jacobi when None).
+    x0 : array like the returned ``phi``, optional
+        Warm start (e.g. the previous solution of a relit scene).
+    progress_bar : bool, default: False
+        tqdm bar over the iterations.
+    association : {"point", "cell"}, default: "point"
+        Point data: boundary nodes lie on the box faces (half control volumes); cell data: the
+        faces lie half a spacing beyond them (``GridGeometry.association``).
+    direction : array (3, 3), optional
+        Orthonormal matrix whose columns are the world directions of the index axes
+        (``index_to_world[:3, :3] / spacing``); identity when None.
+    sigma_floor : float, optional
+        Floor of σt' inside D (vacuum); ``1/ℓ̄`` when None, ℓ̄ the mean chord length of the
+        medium's box (:func:`mean_chord`; this module's docstring, "Vacuum floor").
+    preconditioner : {"multigrid", "jacobi"}, default: "multigrid"
+    max_outer : int, default: 20
+        Flux-limiter passes after the first (plain) solve. Scenes that converge take 2–4 per
+        channel; a point light inside the medium can take 12–20 (the extremes' scale scene).
+    outer_tol : float, default: 1e-2
+        Relative change of σs·φ (2-norm; of φ where σs = 0 everywhere) that ends the
+        flux-limiter passes.
+    boundary : str or 3 pairs of str, default: "marshak"
+        ``"marshak"`` (vacuum outside: ``F·n = φ/2``) or ``"reflect"`` (a symmetry plane:
+        ``F·n = 0``), for every face or per face as ``((x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi))``.
+
+    Returns
+    -------
+    DiffusionSolution
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pv_ambient.stages.diffusion import solve_diffusion
+    >>> sig = np.full((9, 9, 9), 4.0); alb = np.full((9, 9, 9), 0.9)
+    >>> Q0 = np.zeros((9, 9, 9)); Q0[4, 4, 4] = 1.0
+    >>> sol = solve_diffusion(sig, alb, 0.0, (0.25, 0.25, 0.25), Q0)
+    >>> sol.converged, sol.phi.shape
+    (True, (9, 9, 9))
+    """
+    return solve_in_medium(DiffusionMedium.from_arrays(sigma_t, albedo), g, spacing, Q0, Q1, **options)
+
+
+def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=DEFAULT_TOL, maxiter=None, x0=None,
+                    progress_bar=False, association="point", direction=None, sigma_floor=None,
+                    preconditioner="multigrid", max_outer=20, outer_tol=1e-2, boundary="marshak"):
+    """:func:`solve_diffusion` in an already checked :class:`DiffusionMedium` (σt and albedo are
+    not scanned or converted again: once per scene, not once per light); same parameters."""
+    t_start = time.perf_counter()
+    sig, alb = medium.sigma_t, medium.albedo
+    shape = sig.shape
+    gg = check_mean_cosine(g, shape)
+    sp = np.asarray(spacing, dtype=np.float64) if not np.isscalar(spacing) else np.full(3, float(spacing))
+    if sp.shape != (3,) or not np.all(np.isfinite(sp)) or np.any(sp <= 0):
+        raise ValueError(f"spacing must be 3 positive finite numbers, got {spacing!r}")
+    check_choice(association, "association", ("point", "cell"))
+    check_choice(preconditioner, "preconditioner", ("multigrid", "jacobi"))
+    tol = check_real(tol, "tol", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    maxiter = DEFAULT_MAXITER[preconditioner] if maxiter is None else check_int(maxiter, "maxiter", lo=1)
+    max_outer = check_int(max_outer, "max_outer", lo=1)
+    outer_tol = check_real(outer_tol, "outer_tol", lo=0.0, lo_open=True)
+    q0 = as_finite_array(Q0, "Q0", (3, 4), keep_float=True)  # float32 sources stay float32 until sliced
+    if q0.shape[:3] != shape:
+        raise ValueError(f"Q0 must have shape {shape} or {shape + ('C',)}, got {q0.shape}")
+    multi = q0.ndim == 4
+    C = q0.shape[3] if multi else 1
+    if alb.ndim == 4 and (not multi or alb.shape[3] != C):
+        if not multi:
+            raise ValueError(f"albedo has {alb.shape[3]} channels, so Q0 must have shape {shape + (alb.shape[3],)}, "
+                             f"got {q0.shape}")
+        raise ValueError(f"albedo has {alb.shape[3]} channels but Q0 has {C}")
+    qshape = shape + ((C, 3) if multi else (3,))
+    if Q1 is None:
+        q1 = None
+    else:
+        q1 = as_finite_array(Q1, "Q1", (4, 5), keep_float=True)
+        if q1.shape != qshape:
+            raise ValueError(f"Q1 must have shape {qshape} (matching Q0 {q0.shape}), got {q1.shape}")
+    if direction is not None:
+        R = np.asarray(direction, np.float64)
+        if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+            raise ValueError("direction must be an orthonormal 3×3 matrix (columns: the index axes in world), "
+                             f"got {direction!r}")
+    else:
+        R = None
+    if x0 is not None:
+        x0 = as_finite_array(x0, "x0", (3, 4))
+        if x0.shape != q0.shape:
+            raise ValueError(f"x0 must have the shape of phi {q0.shape}, got {x0.shape}")
+    if sigma_floor is None:
+        sigma_floor = SIGMA_FLOOR_REL / mean_chord(shape, sp, association)
+    sigma_floor = check_real(sigma_floor, "sigma_floor", lo=0.0, lo_open=True)
+    d_max = 1.0 / (3.0 * sigma_floor)
+    d_min = D_MIN_REL * float(np.min(sp))
+
+    grid = FVGrid(shape, sp, association, check_boundary(boundary))
+    phi_out = np.zeros(shape + ((C,) if multi else ()), np.float64)
+    F_out = np.zeros(qshape, np.float32)
+    power = {k: np.zeros(C) for k in ("source", "absorbed", "escaped")}
+    total_its, worst, conv_all, n_solves, n_outer = 0, 0.0, True, 0, 0
+    bar = None
+    if progress_bar:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(desc="diffusion", unit="it")
+    solved = []  # (albedo channel, Q0, Q1, phi) of channels solved so far
+    try:
+        for ch in range(C):
+            a = alb[..., ch] if alb.ndim == 4 else alb
+            s0 = np.asarray(q0[..., ch] if multi else q0, np.float64)
+            s1 = None if q1 is None else np.asarray(q1[..., ch, :] if multi else q1, np.float64)
+            if s1 is not None and R is not None:
+                s1 = s1 @ R  # world → index-axis components
+            sigma_a = (1.0 - a) * sig
+            sig_p = sigma_a + a * sig * (1.0 - gg)
+            D0 = 1.0 / (3.0 * np.maximum(sig_p, sigma_floor))
+            if not np.any(sigma_a > 0) and not any(
+                    shape[ax] > 1 and not reflects(grid, ax, sd) for ax in range(3) for sd in (-1, 1)):
+                raise ValueError("the diffusion problem is singular: no absorption (albedo 1 everywhere) and no "
+                                 "face where light can leave (every face reflects or every axis has one node)")
+            phi = D = None
+            # reuse an earlier channel with equal albedo and proportional sources
+            for a_prev, s0_prev, s1_prev, phi_prev, D_prev in solved:
+                k = _proportional(a, s0, s1, a_prev, s0_prev, s1_prev)
+                if k is not None:
+                    phi, D = k * phi_prev, D_prev
+                    break
+            if phi is None:
+                x0c = None if x0 is None else (x0[..., ch] if multi else x0)
+                if x0c is None and flux_limited and solved and WARM_CHANNELS:
+                    # the previous channel's limited solution, scaled by the source power
+                    a_p, s0_p, _, phi_p, _ = solved[-1]
+                    p_prev, p_cur = float(np.sum(s0_p)), float(np.sum(s0))
+                    if p_prev > 0 and p_cur > 0:
+                        x0c = phi_p * (p_cur / p_prev)
+                with one_thread_if(sig.size <= SERIAL_NODES):
+                    phi, D, its, res, outer, outer_ok = _solve_channel(
+                        grid, sig_p, sigma_a, a * sig, D0, s0, s1, x0c, tol, maxiter, preconditioner, flux_limited,
+                        max_outer, outer_tol, d_max, d_min, bar)
+                conv = res <= tol and outer_ok
+                total_its += its
+                worst = max(worst, res)
+                conv_all = conv_all and conv
+                n_solves += 1
+                n_outer += outer
+                if not conv:
+                    what = (f"relative residual {res:.2e} > tol={tol:.1e} (maxiter={maxiter})" if res > tol else
+                            f"the flux limiter's σs·φ still changed by ≥ outer_tol={outer_tol:g} after "
+                            f"max_outer={max_outer} passes")
+                    warnings.warn(f"diffusion solve of channel {ch} did not converge: {what}, {its} iterations in "
+                                  f"all; raise maxiter/max_outer or loosen tol/outer_tol", UserWarning, stacklevel=2)
+                solved.append((a, s0, s1, phi, D))
+            F = node_flux(grid, phi, D, s1)
+            if R is not None:
+                F = F @ R.T  # index-axis → world components
+            src, absorbed, escaped = power_balance(grid, phi, sigma_a, D, s0, s1)
+            power["source"][ch], power["absorbed"][ch], power["escaped"][ch] = src, absorbed, escaped
+            if multi:
+                phi_out[..., ch] = phi
+                F_out[..., ch, :] = F
+            else:
+                phi_out[...] = phi
+                F_out[...] = F
+    finally:
+        if bar is not None:
+            bar.close()
+    if not multi:
+        power = {k: v[0] for k, v in power.items()}
+    return DiffusionSolution(phi=phi_out, flux=F_out, iterations=total_its, residual=worst, converged=conv_all,
+                             power=power, solves=n_solves, outer_iterations=n_outer,
+                             time=time.perf_counter() - t_start)
+
+
+def _proportional(a, s0, s1, a_prev, s0_prev, s1_prev):
+    """k with (s0, s1) = k·(s0_prev, s1_prev) when the albedo is equal, else None."""
+    if not np.array_equal(a, a_prev) or (s1 is None) != (s1_prev is None):
+        return None
+
+    def zero(s):
+        return s is None or not np.any(s)
+
+    if zero(s0_prev) and zero(s1_prev):
+        return 0.0 if zero(s0) and zero(s1) else None
+    ref, cur = (s0_prev, s0) if np.any(s0_prev) else (s1_prev, s1)
+    i = np.unravel_index(int(np.argmax(np.abs(ref))), ref.shape)
+    k = float(cur[i]) / float(ref[i])
+    if not np.allclose(s0, k * s0_prev, rtol=1e-6, atol=0.0):
+        return None
+    if s1 is not None and not np.allclose(s1, k * s1_prev, rtol=1e-6, atol=0.0):
+        return None
+    return k
+
+
+def solve_for_light(light, g, *, medium, geometry, tau, light_grid, **options):
+    """Direct irradiance → first-collision source → diffusion for a light (or several).
+
+    A sequence of lights sums their sources into one solve (the problem is linear; per-light
+    solves instead let a relight re-solve one light, warm-started with ``x0``).
+
+    Parameters
+    ----------
+    light : PointLight, DirectionalLight or a sequence of them
+    g : float or PhaseFunction
+        Mean cosine of the phase function.
+    medium : DiffusionMedium
+        σt and albedo on the data grid, checked once per scene
+        (``DiffusionMedium.from_arrays(optics.sigma_grid(), optics.albedo_grid())``).
+    geometry : GridGeometry
+        The data grid's placement (spacing, ``index_to_world``, box, ``association``).
+    tau : array (m0, m1, m2), or a sequence of them (one per light)
+        The light's optical depth on ``light_grid`` (``Renderer.optical_depth``), computed by
+        the caller.
+    light_grid : LightGrid
+        The grid ``tau`` lives on.
+    **options
+        Passed to :func:`solve_in_medium` (see :func:`solve_diffusion`); ``association`` and
+        ``direction`` default to the geometry's.
+
+    Returns
+    -------
+    DiffusionSolution
+        3 channels.
+    """
+    lights = light if isinstance(light, (list, tuple)) else (light,)
+    taus = tau if isinstance(tau, (list, tuple)) else (tau,)
+    if len(taus) != len(lights):
+        raise ValueError(f"tau must give one optical depth per light: {len(lights)} lights, {len(taus)} tau")
+    Q0 = Q1 = None
+    for lt, tau_l in zip(lights, taus):
+        E, omega = direct_irradiance(lt, geometry, tau_l, light_grid)
+        q0, q1 = source_in_medium(medium, g, E, omega)
+        Q0, Q1 = (q0, q1) if Q0 is None else (Q0 + q0, Q1 + q1)
+    if Q0 is None:
+        raise ValueError("light must be a light or a non-empty sequence of lights")
+    sp = np.asarray(geometry.spacing, np.float64)
+    R = np.asarray(geometry.index_to_world, np.float64)[:3, :3] / sp
+    opts = dict(association=getattr(geometry, "association", "point"),
+                direction=None if np.allclose(R, np.eye(3)) else R)
+    opts.update(options)
+    return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
