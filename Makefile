@@ -10,7 +10,7 @@ export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache
 export MPLBACKEND := Agg
 
-.PHONY: demo test install clean bench gallery
+.PHONY: demo test install clean bench docs gallery
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -37,11 +37,15 @@ $(DOCS_STAMP): $(STAMP)
 	$(PY) -m pip install -e ".[docs]"
 	touch $(DOCS_STAMP)
 
-# The example gallery (sphinx-gallery + PyVista's scraper) from examples/_sphinx into build/gallery;
-# PV_AMBIENT_EXAMPLES_FAST=1 make gallery builds the small, fast variant.
-gallery: $(DOCS_STAMP)
-	$(PY) -m sphinx -b html -d build/gallery/.doctrees examples/_sphinx build/gallery
-	@echo "gallery: $(CURDIR)/build/gallery/index.html"
+# The documentation in one build (docs/ → build/docs): the project's pages, the API reference
+# (autodoc) and the example gallery (sphinx-gallery + PyVista's scraper runs every examples/ script);
+# PV_AMBIENT_EXAMPLES_FAST=1 make docs builds the gallery's small, fast variant.
+docs: $(DOCS_STAMP)
+	$(PY) -m sphinx -b html -d build/docs/.doctrees docs build/docs
+	@echo "docs: $(CURDIR)/build/docs/index.html"
+
+# the former name of the target (the gallery is part of the docs build)
+gallery: docs
 
 clean:
-	rm -rf $(VENV) .numba_cache demo_output build *.egg-info
+	rm -rf $(VENV) .numba_cache demo_output build *.egg-info docs/auto_examples docs/sg_execution_times.rst

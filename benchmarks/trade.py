@@ -1,4 +1,4 @@
-"""The speed–accuracy trade (DESIGN §6): every model and preset against a converged path-traced
+"""The speed–accuracy trade (docs/trade.rst): every model and preset against a converged path-traced
 reference, timed against VTK's emission–absorption render measured in the same run.
 
 For each synthetic scene (supernova shell lit from its centre, a forward-scattering cloud under a
@@ -232,7 +232,7 @@ def main(argv=None):
 
 
 def plot(rows, path):
-    """Error against time, one panel per scene and time axis (DESIGN §6): the first frame (every
+    """Error against time, one panel per scene and time axis (docs/trade.rst): the first frame (every
     cache cold) on the top row, a camera move (caches warm) on the bottom row."""
     import matplotlib
 

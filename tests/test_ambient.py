@@ -1,4 +1,4 @@
-"""Ambient occlusion and ambient scattering (DESIGN §4.4, §4.5): consistency with the models they
+"""Ambient occlusion and ambient scattering (docs/ambient_scattering.rst §4, §5): consistency with the models they
 reduce to, caching, the ``auto`` rules. Accuracy against the path-traced reference is measured by
 ``benchmarks/trade.py`` (a benchmark, not a test)."""
 

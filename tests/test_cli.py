@@ -53,7 +53,7 @@ def test_cli_render_writes_png_and_radiance_equal_to_api(tmp_path):
                     window_size=(24, 16))
     np.testing.assert_array_equal(radiance, api.radiance)
     # units: the centre ray crosses 2 world units of σt = 2; EA's colour for a physical TF is its
-    # emission array (DESIGN §2), so L = Le·(1 − e^{−σt·2}) in closed form
+    # emission array (docs/models.rst), so L = Le·(1 − e^{−σt·2}) in closed form
     centre = radiance[8, 12]
     expected = np.array([1.0, 0.5, 0.25]) * (1.0 - np.exp(-4.0))
     np.testing.assert_allclose(centre, expected, rtol=1e-3)

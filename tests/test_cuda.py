@@ -1,4 +1,4 @@
-"""The CUDA backend: the same scalar kernels on the GPU (DESIGN §5b), checked on a machine without
+"""The CUDA backend: the same scalar kernels on the GPU (docs/architecture.rst), checked on a machine without
 a GPU through Numba's CUDA simulator, in a subprocess that sets ``NUMBA_ENABLE_CUDASIM=1`` before
 numba is imported (tests/_cuda_sim_script.py); plus the error messages and the array core
 without pyvista/vtk."""

@@ -1,4 +1,4 @@
-"""Diffusion solver (DESIGN §4b): analytic Green's function with second-order convergence, the
+"""Diffusion solver (docs/diffusion.rst): analytic Green's function with second-order convergence, the
 Marshak slab's closed form, power balance, albedo scaling, vacuum, flux limiting against exact
 1D transport, the first-collision source and the direct irradiance's power."""
 

@@ -1,4 +1,4 @@
-"""The ``diffusion`` render model (DESIGN §4b): exact single scattering plus the multiply-scattered
+"""The ``diffusion`` render model (docs/diffusion.rst): exact single scattering plus the multiply-scattered
 light of the diffusion solve; its limits and caching."""
 
 import math

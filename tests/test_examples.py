@@ -1,6 +1,6 @@
 """Every gallery example runs headless in its fast mode and produces the pictures it announces.
 
-Each ``examples/**/*.py`` (folders starting with ``_``, such as the Sphinx project, excluded) runs
+Each ``examples/**/*.py`` (folders starting with ``_`` excluded) runs
 in its own subprocess with ``PV_AMBIENT_EXAMPLES_FAST=1`` (small grids and windows) and
 ``PV_AMBIENT_EXAMPLES_OUT`` pointing at a temporary folder. Scripts announce each picture with a
 line ``saved PATH (WxH)``; the test checks that every announced PNG exists, has that size, is not

@@ -14,8 +14,9 @@ scale invariance.
   100° view), one voxel thick as point data (8, 8, 2) (``slab``) and as cell data — dimensions
   (9, 9, 2), one cell layer (``one_cell``) —, a flat grid of dimensions (8, 8, 1) (``flat``:
   zero thickness, nothing to see) and a 2×2×2 grid (``tiny``);
-* quality preset ∈ {``preview``, ``balanced``} (ray step 1 or ½ voxel; light grid 1× or DESIGN
-  §4.3's factor, 2× where σt·h > 0.3); preintegrated tables always at ``"preview"`` effort;
+* quality preset ∈ {``preview``, ``balanced``} (ray step 1 or ½ voxel; light grid 1× or
+  docs/ambient_scattering.rst §3's factor, 2× where σt·h > 0.3); preintegrated tables always at
+  ``"preview"`` effort;
 * model: ``emission_absorption``, ``ambient_occlusion``, ``single_scattering``,
   ``ambient_scattering`` with ``propagation="beer_lambert"`` and ``"tube"``, ``path_traced``
   (4 samples per pixel), ``diffusion`` plain and flux-limited (added when diffusion became
@@ -329,7 +330,7 @@ def scaled_scene(kind, s):
     grid["albedo"] = np.tile(np.array([0.9, 0.8, 0.6], np.float32), (grid.n_points, 1))
     grid["emission"] = np.tile(np.array([0.2, 0.1, 0.05], np.float32), (grid.n_points, 1))
     r = pa.Renderer(grid, transfer_function=pa.TransferFunction.physical(), lights=lights)
-    # the default quality (light grid: DESIGN §4.3's factor from σt·h); g = 0.6 and 0.3 at
+    # the default quality (light grid: docs/ambient_scattering.rst §3's factor from σt·h); g = 0.6 and 0.3 at
     # "balanced" table quality are slices shipped with the package (nothing to compute)
     return r, cam, g, {"quality": "balanced", "table_quality": "balanced", **options}
 

@@ -75,11 +75,11 @@ def test_symmetric_kinds_have_zero_mean_cosine(phase):
     assert abs(2.0 * math.pi * _quad(lambda mu: mu * phase.eval(mu))) <= 1e-12
 
 
-# --- values against the closed forms of DESIGN §1 ----------------------------------------
+# --- values against the closed forms of docs/conventions.rst --------------------------
 
 
 def _naive(phase, mu):
-    """Slow, obviously-correct NumPy transcription of DESIGN §1."""
+    """Slow, obviously-correct NumPy transcription of docs/conventions.rst."""
     g = phase.g
     if isinstance(phase, HenyeyGreenstein):
         return (1 - g * g) / (4 * np.pi * (1 + g * g - 2 * g * mu) ** 1.5)

@@ -1,4 +1,4 @@
-"""Preintegrated ball tables D and F (DESIGN §4.2): limits, energy conservation, agreement with an
+"""Preintegrated ball tables D and F (docs/ambient_scattering.rst §2): limits, energy conservation, agreement with an
 independent forward estimator, lookups, caching, the shipped default, argument errors.
 
 Statistical tests and their false-alarm rates (for a correct implementation and an arbitrary seed;
