@@ -1,5 +1,5 @@
 """Compute backends: ``"cpu"`` (Numba ``prange`` drivers) and ``"cuda"`` (the same scalar kernels
-compiled for an NVIDIA GPU by numba-cuda, DESIGN §5b), chosen by ``backend="auto" | "cpu" | "cuda"``.
+compiled for an NVIDIA GPU by numba-cuda, docs/architecture.rst), chosen by ``backend="auto" | "cpu" | "cuda"``.
 
 ``auto`` takes CUDA when the ``numba-cuda`` package is installed (``pip install
 "pv_ambient[cuda]"``) and a GPU is visible, and the CPU otherwise; the render's metadata says

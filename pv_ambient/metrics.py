@@ -1,4 +1,4 @@
-"""Image error metrics of the speed–accuracy study (DESIGN §6): block and per-pixel relative RMSE,
+"""Image error metrics of the speed–accuracy study (docs/trade.rst): block and per-pixel relative RMSE,
 relative bias of the mean, SSIM of tone-mapped images.
 
 All take linear radiance arrays ``(H, W, 3)`` (or ``(H, W)``) and a reference of the same shape;

@@ -23,7 +23,7 @@ A scene file is a JSON object. Keys (all but ``volume`` optional)::
      "backend": "auto",                     # "auto" | "cpu" | "cuda" (since pv_ambient 0.2.0)
      "display": {"exposure": 0.0, "tonemap": "clip", "srgb": false}}   # PNG conversion only
 
-Units (DESIGN §1): world units are the grid's; σt in 1/world unit; a point light's intensity in
+Units (docs/conventions.rst): world units are the grid's; σt in 1/world unit; a point light's intensity in
 W/sr gives irradiance I/d² at distance d; a directional light's irradiance is per unit area;
 ``view_angle`` is VTK's vertical angle in degrees. The radiance written by
 ``--radiance OUT.npy`` is float32 ``(H, W, 3)``, linear, top row first, background included.

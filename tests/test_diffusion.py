@@ -557,7 +557,7 @@ def test_not_converged_warns():
 
 @pytest.mark.parametrize("kwargs, match", [
     (dict(albedo=np.full((4, 4, 4), 1.5)), "albedo must lie in"),
-    (dict(sigma_t=-np.ones((4, 4, 4))), "sigma_t must be >= 0"),
+    (dict(sigma_t=-np.ones((4, 4, 4))), "sigma_t must be non-negative"),
     (dict(g=1.0), "g must be"),
     (dict(spacing=(1.0, 0.0, 1.0)), "spacing must be"),
     (dict(Q0=np.zeros((4, 4, 3))), "Q0 must have shape"),

@@ -1,4 +1,4 @@
-"""The one place that decides how kernels are compiled (DESIGN §5b, STYLE "Numba projects").
+"""The one place that decides how kernels are compiled (docs/architecture.rst, STYLE "Numba projects").
 
 Two kinds of compiled functions exist:
 

@@ -1,4 +1,4 @@
-"""CUDA drivers (DESIGN §5b): one thread per pixel (or light-grid node), each running the same
+"""CUDA drivers (docs/architecture.rst): one thread per pixel (or light-grid node), each running the same
 scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
 :func:`.pathtrace.pathtrace_pixel`, :func:`.lightvol.sweep_node`), compiled for the GPU by
 :func:`._jit.cuda_kernel`.

@@ -1,4 +1,4 @@
-"""Kernels of the diffusion solver (DESIGN §4b): a 7-point operator, red–black Gauss–Seidel,
+"""Kernels of the diffusion solver (docs/diffusion.rst): a 7-point operator, red–black Gauss–Seidel,
 aggregation multigrid transfers, fused conjugate-gradient updates, and the control-volume
 average of a light's direct irradiance.
 

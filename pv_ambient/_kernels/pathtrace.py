@@ -1,4 +1,4 @@
-"""Unbiased volumetric path tracing (DESIGN §1 RTE, §2 ``path_traced``): the per-path scalar
+"""Unbiased volumetric path tracing (the transfer equation of docs/conventions.rst; docs/models.rst ``path_traced``): the per-path scalar
 kernel and its CPU driver over image rows.
 
 Estimator (one path per call, RGB throughput ``β``, grey extinction):
@@ -8,15 +8,15 @@ Estimator (one path per call, RGB throughput ``β``, grey extinction):
 2. **Free flight** by delta tracking (:mod:`.tracking`): the first real collision has density
    ``σt(x) T(x)``. A primary ray that leaves the medium adds the background ``L_b`` (so its
    expectation is ``T·L_b``); the background is radiance *seen through* the volume, not a
-   light (DESIGN §1), so a ray that escapes after a scattering event adds nothing.
+   light (docs/conventions.rst), so a ray that escapes after a scattering event adds nothing.
 3. **Emission** at a real collision: ``β·(1 − a)·Le``. Since the collision density is
    ``σt T``, its expectation is ``∫ T σa Le`` with ``σa = (1 − a)σt`` per channel — the
-   pbrt/Mitsuba source term (DESIGN §1) without a second, stochastic absorb/scatter choice.
+   pbrt/Mitsuba source term (docs/conventions.rst) without a second, stochastic absorb/scatter choice.
 4. **Next-event estimation** to every light: ``β·a·E·T_l·p(θ)`` with ``E = I/max(d², d2min)``
    for a point light (the clamp of :func:`.raycast.light_at`) or the directional irradiance,
    ``T_l`` a ratio-tracking estimate along the shadow ray (to the light, or to the box exit for
    a directional light; a point light may lie inside or outside the box) and
-   ``cos θ = ω_light · (−ω_ray)`` (propagation directions, DESIGN §1).
+   ``cos θ = ω_light · (−ω_ray)`` (propagation directions, docs/conventions.rst).
 5. **Scattering**: ``β *= a`` (RGB albedo as a weight, so one path carries all channels),
    a new direction from the phase function by importance sampling (``phase_sample``: the
    weight ``p/pdf`` is exactly 1), and a new free flight from the collision point.

@@ -1,13 +1,13 @@
-"""Phase-function kernels: evaluate, sample cos θ, sample a direction (DESIGN §1, §5b).
+"""Phase-function kernels: evaluate, sample cos θ, sample a direction (docs/conventions.rst, docs/architecture.rst).
 
-Convention (DESIGN §1): ``p(cos θ)`` is normalised to 1 over the sphere (it includes the 1/4π),
+Convention (docs/conventions.rst): ``p(cos θ)`` is normalised to 1 over the sphere (it includes the 1/4π),
 and θ is the angle between the light's propagation direction *before* and *after* scattering,
 so ``cos θ = w_in · w_out`` with both vectors pointing along the propagation. ``g > 0`` (and
 Schlick's ``k > 0``) is forward scattering: the peak sits at ``cos θ = 1``.
 
 Kinds are integers (module constants) so that a caller dispatches on a number, never on a
 function object (functions passed as arguments defeat Numba's caching). Every function is a
-scalar kernel (DESIGN §5b): scalars in, scalars out, no allocation, uniforms passed in. Kernels
+scalar kernel (docs/architecture.rst): scalars in, scalars out, no allocation, uniforms passed in. Kernels
 never validate; :mod:`pv_ambient.inputs.phase` rejects ``|g| >= 1`` at construction. The two
 ``*_array`` drivers at the end are thin serial loops for the Python API and the tests.
 

@@ -1,4 +1,4 @@
-"""Monte Carlo kernels for the preintegrated ball tables D and F (DESIGN §4.2), and their lookups.
+"""Monte Carlo kernels for the preintegrated ball tables D and F (docs/ambient_scattering.rst §2), and their lookups.
 
 The reference problem, in optical units (σ_t = 1, so the ball radius is the optical radius
 ``R = τ``): a homogeneous ball of albedo ``a`` and phase function ``p`` (integer ``kind``,
@@ -11,8 +11,8 @@ entry point ``z_entry(y) = −sqrt(R² − y_x² − y_y²)``:
 
     E_dir(y) = exp(−(y_z − z_entry(y)))
 
-DESIGN §4.2 writes ``e^{−σ̄(y_z + r)}``; that is exact only on the axis (y_x = y_y = 0) and
-overestimates the attenuation elsewhere. The kernels use the exact chord.
+(docs/ambient_scattering.rst §2); the simpler ``e^{−σ̄(y_z + r)}`` is exact only on the axis
+(y_x = y_y = 0) and overestimates the attenuation elsewhere.
 
 Quantities (both per unit front irradiance):
 

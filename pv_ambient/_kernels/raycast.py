@@ -7,9 +7,9 @@ integrated exactly for a piecewise-constant medium: a segment of extinction σ a
 ``T·(1 − e^{−σℓ})·S`` where ``S`` is the model's source per unit extinction, then ``T *= e^{−σℓ}``:
 
 * emission–absorption: ``S = C`` (TF colour; Max's model, σt·C per unit length);
-* ambient occlusion (DESIGN §4.5): ``S = C + a·L_amb·e^{−r σ̄}``;
+* ambient occlusion (docs/ambient_scattering.rst §5): ``S = C + a·L_amb·e^{−r σ̄}``;
 * single scattering: ``S = a·Σ_j E_j T_j p(θ_j) + (1 − a)·Le``;
-* ambient scattering (DESIGN §4.4): single scattering plus ``a·Σ_j E_j Φ_j D(θ_j, rσ̄, g, ā)``,
+* ambient scattering (docs/ambient_scattering.rst §4): single scattering plus ``a·Σ_j E_j Φ_j D(θ_j, rσ̄, g, ā)``,
 
 per RGB channel (a: albedo, Le: emission, E_j: I_j/d² or the directional irradiance, T_j and
 Φ_j the light's transmittance volumes). Segments whose block majorant is zero are skipped to
@@ -148,7 +148,7 @@ def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
 @scalar
 def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, linv, phi, radius, tau_b,
                   abr, abg, abb, D, a_nodes, tau_lo_log, tau_dlog, d2min):
-    """Σ_j E_j Φ_j D(θ_j, r σ̄, ā) (rgb): light scattered at least once inside the ball (DESIGN §4.4).
+    """Σ_j E_j Φ_j D(θ_j, r σ̄, ā) (rgb): light scattered at least once inside the ball (docs/ambient_scattering.rst §4).
 
     Φ_j is read at the ball's entry point ``x − s·ω_j`` (s = r, or the distance to a point light
     when that is shorter) from the front optical depth ``phi``: one component per light (grey,
@@ -191,7 +191,7 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, 
 @scalar
 def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
-    light from the diffusion solve (DESIGN §4b), ω_o = −d toward the camera. ``diff`` is
+    light from the diffusion solve (docs/diffusion.rst), ω_o = −d toward the camera. ``diff`` is
     (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components; or
     (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights)."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(diff, x, y, z)

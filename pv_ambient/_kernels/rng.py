@@ -12,12 +12,12 @@ import numpy as np
 
 from ._jit import scalar
 
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _K1 = np.uint64(0xD6E8FEB86659FD93)
 _K2 = np.uint64(0xA0761D6478BD642F)
-_INV53 = 1.0 / 9007199254740992.0  # 2**-53
+INV53 = 1.0 / 9007199254740992.0  # 2**-53
 
 
 @scalar
@@ -31,13 +31,13 @@ def mix64(z):
 @scalar
 def key(seed, stream, counter):
     """Hash three non-negative integers into one uint64 key."""
-    h = mix64(np.uint64(seed) * _K1 + _GOLDEN)
-    h = mix64(h ^ (np.uint64(stream) * _K2 + _GOLDEN))
+    h = mix64(np.uint64(seed) * _K1 + GOLDEN)
+    h = mix64(h ^ (np.uint64(stream) * _K2 + GOLDEN))
     return mix64(h ^ (np.uint64(counter) * _K1 + _K2))
 
 
 @scalar
 def uniform(seed, stream, counter, dim):
     """The ``dim``-th uniform in [0, 1) of sample ``counter`` of stream ``stream``."""
-    z = mix64(key(seed, stream, counter) + np.uint64(dim) * _GOLDEN)
-    return np.float64(z >> np.uint64(11)) * _INV53
+    z = mix64(key(seed, stream, counter) + np.uint64(dim) * GOLDEN)
+    return np.float64(z >> np.uint64(11)) * INV53

@@ -1,4 +1,4 @@
-"""Summed-area table of a piecewise-constant 3D field and box integrals from it (DESIGN §4.1).
+"""Summed-area table of a piecewise-constant 3D field and box integrals from it (docs/ambient_scattering.rst §1).
 
 Index-space convention (the same as :mod:`.interp`): sample ``(i, j, k)`` sits at index point
 ``(i, j, k)`` and owns the unit cell ``[i−½, i+½] × [j−½, j+½] × [k−½, k+½]``; the field is

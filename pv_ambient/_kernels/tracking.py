@@ -1,5 +1,5 @@
 """Null-collision tracking through a majorant grid: delta tracking (free-flight sampling) and
-ratio tracking (transmittance estimation) — scalar kernels (DESIGN §2 ``path_traced``, §5b).
+ratio tracking (transmittance estimation) — scalar kernels (docs/path_tracer.rst, docs/architecture.rst).
 
 A ray is given in sample index space (``p + t·q``, ``t`` the world distance, as in
 :mod:`.raycast`) together with the interval ``[t0, t1)`` to track over (already clipped to the
@@ -44,7 +44,7 @@ from ._jit import driver, scalar
 from .interp import trilinear
 from .majorant import block_of
 from .medium import MODE_GRID, lut_coords, lut_value
-from .rng import _GOLDEN, _INV53, key, mix64
+from .rng import GOLDEN, INV53, key, mix64
 
 INF = math.inf
 
@@ -56,8 +56,8 @@ def draw(k, dim):
     Identical bits to ``rng.uniform(seed, stream, counter, dim)``; the key is hashed once per
     path instead of once per draw.
     """
-    z = mix64(k + np.uint64(dim) * _GOLDEN)
-    return np.float64(z >> np.uint64(11)) * _INV53
+    z = mix64(k + np.uint64(dim) * GOLDEN)
+    return np.float64(z >> np.uint64(11)) * INV53
 
 
 @scalar

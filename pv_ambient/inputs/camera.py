@@ -1,4 +1,4 @@
-"""Pinhole and parallel cameras with VTK's conventions (DESIGN §1 "Camera").
+"""Pinhole and parallel cameras with VTK's conventions (docs/conventions.rst "Camera").
 
 For image-plane point (u, v) ∈ [0, 1]² (u right, v down) and aspect = W/H::
 

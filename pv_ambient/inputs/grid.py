@@ -1,4 +1,4 @@
-"""The one converter between ``pyvista.ImageData`` and numpy (DESIGN §1 "Grid").
+"""The one converter between ``pyvista.ImageData`` and numpy (docs/conventions.rst "Grid").
 
 Point data value ``v[i, j, k]`` sits at ``index_to_physical · (i + i0, j + j0, k + k0, 1)`` where
 ``(i0, j0, k0)`` is the extent offset; VTK stores x fastest, so a flat point array reshapes with

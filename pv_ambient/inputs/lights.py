@@ -1,4 +1,4 @@
-"""Point and directional lights (DESIGN §1 "Lights").
+"""Point and directional lights (docs/conventions.rst "Lights").
 
 A point light has a position and an RGB radiant intensity ``I`` in W/sr: its unoccluded
 irradiance at distance d is ``I/d²``. A directional light has a direction of *propagation* and an

@@ -1,7 +1,7 @@
 """Phase functions: validated Python objects over the kernels in ``_kernels/phase.py``.
 
 A phase function ``p(cos θ)`` gives the angular distribution of scattered light. Convention
-(DESIGN §1): ``p`` is normalised to 1 over the sphere (it includes the 1/4π) and θ is the
+(docs/conventions.rst): ``p`` is normalised to 1 over the sphere (it includes the 1/4π) and θ is the
 angle between the light's propagation direction before and after scattering, so ``g > 0``
 is forward scattering (peak at ``cos θ = 1``).
 

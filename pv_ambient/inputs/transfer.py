@@ -1,4 +1,4 @@
-"""Transfer functions: scalars → extinction σt, albedo, emission and display colour (DESIGN §3).
+"""Transfer functions: scalars → extinction σt, albedo, emission and display colour (docs/transfer_function.rst).
 
 A :class:`TransferFunction` is a *specification*; :meth:`TransferFunction.resolve` turns it into
 :class:`Optics`, the arrays the kernels read, once the data (for ``clim=None``) and the grid
@@ -23,7 +23,7 @@ Scattering and emission: ``albedo`` is a scalar that scales the TF colour (the d
 makes the scattering colour the colormap's colour) or an RGB triple used as a constant;
 ``emission`` likewise (default 0: no emission). The source of the emission–absorption model is
 ``σt · color`` (Max's model, what VTK renders); the physical models use ``σa · Le`` with
-``Le = emission`` (DESIGN §1).
+``Le = emission`` (docs/conventions.rst).
 
 Kernels evaluate the TF by a lookup table of ≥ 1024 entries with linear interpolation in the
 scalar (post-classification, as VTK with linear interpolation): table columns are

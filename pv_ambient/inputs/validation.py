@@ -1,6 +1,6 @@
 """Argument checks whose messages name the argument and say what was received.
 
-The public API validates and converts here; kernels never validate (DESIGN §5).
+The public API validates and converts here; kernels never validate (docs/architecture.rst).
 """
 
 from __future__ import annotations
@@ -95,3 +95,80 @@ def check_choice(value, name: str, choices) -> str:
         options = ", ".join(repr(c) for c in choices)
         raise ValueError(f"{name} must be one of {options}; got {show_value(value)}")
     return value
+
+
+def _array_words(ndim) -> str:
+    if ndim is None:
+        return "an array"
+    dims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+    return "a " + " or ".join(f"{d}-D" for d in dims) + " array"
+
+
+def check_array(value, name: str, *, ndim=None, dtype=np.float64, finite=True, lo=None, hi=None, nonempty=False,
+                promote_scalar=False) -> np.ndarray:
+    """``value`` as a C-contiguous numpy array of real numbers, checked, or raise naming ``name``.
+
+    The one array check of the package: stages call it on their array inputs.
+
+    Parameters
+    ----------
+    value : array_like
+    name : str
+        The argument's name, as error messages quote it.
+    ndim : int or tuple of int, optional
+        Allowed numbers of dimensions (any when None).
+    dtype : numpy dtype or "float", default: float64
+        The result's dtype; ``"float"`` keeps float32/float64 input as it is (others become float64).
+    finite : bool or "nan", default: True
+        Reject NaN and ±inf (True), only NaN (``"nan"``: infinities pass where the bounds allow
+        them), or nothing (False).
+    lo, hi : float, optional
+        Inclusive bounds on every value.
+    nonempty : bool, default: False
+        Reject an array with no elements.
+    promote_scalar : bool, default: False
+        Treat a scalar as a 1-element 1-D array.
+
+    Examples
+    --------
+    >>> from pv_ambient.inputs.validation import check_array
+    >>> check_array([0.5, 1.0], "albedo", ndim=1, lo=0.0, hi=1.0).dtype
+    dtype('float64')
+    >>> check_array([[1.0]], "sigma", ndim=3)
+    Traceback (most recent call last):
+    ...
+    ValueError: sigma must be a 3-D array, got shape (1, 1)
+    """
+    try:
+        arr = np.asarray(value)
+    except Exception:  # noqa: BLE001 - anything numpy cannot read is a type error here
+        raise TypeError(f"{name} must be {_array_words(ndim)} of real numbers, got {type(value).__name__}") from None
+    if arr.dtype == np.bool_ or arr.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be {_array_words(ndim)} of real numbers, got dtype {arr.dtype} "
+                        f"({show_value(value)})")
+    if promote_scalar:
+        arr = np.atleast_1d(arr)
+    if ndim is not None and arr.ndim not in ((ndim,) if isinstance(ndim, int) else tuple(ndim)):
+        raise ValueError(f"{name} must be {_array_words(ndim)}, got shape {arr.shape}")
+    if nonempty and arr.size == 0:
+        raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
+    if dtype == "float":
+        if arr.dtype not in (np.float32, np.float64):
+            arr = arr.astype(np.float64)
+    elif arr.dtype != dtype:
+        arr = arr.astype(dtype)
+    if not arr.flags.c_contiguous:
+        arr = np.ascontiguousarray(arr)  # (a 0-d array stays 0-d)
+    if arr.size:
+        if finite is True and not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite, got {int(np.count_nonzero(~np.isfinite(arr)))} non-finite values")
+        if finite == "nan" and np.any(np.isnan(arr)):
+            raise ValueError(f"{name} must not contain NaN")
+        if lo is not None or hi is not None:
+            amin, amax = float(arr.min()), float(arr.max())
+            if hi is None and amin < lo:
+                word = "non-negative" if lo == 0 else f">= {lo}"
+                raise ValueError(f"{name} must be {word}, got minimum {amin!r}")
+            if (lo is not None and amin < lo) or (hi is not None and amax > hi):
+                raise ValueError(f"{name} must lie in [{lo}, {hi}], got values from {amin!r} to {amax!r}")
+    return arr

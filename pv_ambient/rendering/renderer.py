@@ -151,7 +151,7 @@ class Renderer:
         self.lights = as_lights(lights)
 
     def majorant(self, block=MAJORANT_BLOCK):
-        """Upper bound of σt per ``block``³ samples (cached)."""
+        """Upper bound of σt over each block of (``block``)³ samples (cached)."""
         key = ("majorant", block)
         if key not in self.cache:
             from .._kernels.majorant import build_majorant
@@ -165,7 +165,7 @@ class Renderer:
 
     # -- cached stages ---------------------------------------------------------------------
     def light_grid(self, light_resolution=None):
-        """The light grid for a resolution factor (DESIGN §4.3 default when None)."""
+        """The light grid for a resolution factor (docs/ambient_scattering.rst §3 default when None)."""
         from ..stages.propagation import default_factor, make_light_grid
 
         f = default_factor(self.optics, self.geometry) if light_resolution is None else light_resolution
@@ -293,7 +293,7 @@ class Renderer:
     def _ball_on_light_grid(self, radius, grid):
         """The ball grid with σ̄ averaged over the part of the ball inside the grid.
 
-        The tube march (DESIGN §4.3) starts where the light enters the medium, so its balls never
+        The tube march (docs/ambient_scattering.rst §3) starts where the light enters the medium, so its balls never
         straddle the entry face; averaging over the inside part gives the continuous march the
         same property (homogeneous medium, albedo 0: Φ equals Beer–Lambert exactly).
         """
@@ -314,7 +314,7 @@ class Renderer:
         return self.cache[key]
 
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu"):
-        """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (DESIGN §4b),
+        """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (docs/diffusion.rst),
         (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
         relight re-solves only the light that changed (warm-started from its previous solution).
 
@@ -336,13 +336,11 @@ class Renderer:
             key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
             if key not in self.cache:
                 t = time.perf_counter()
-                medium = self._cache.get(("diffusion_medium",))
-                if medium is None:
-                    medium = DiffusionMedium.from_arrays(self.optics.sigma_grid(), self.optics.albedo_grid())
-                    self._cache[("diffusion_medium",)] = medium
+                medium = self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
+                    self.optics.sigma_grid(), self.optics.albedo_grid()))
                 lgrid = self.light_grid(grid.factor)
                 sol = solve_for_light(lt, g, medium=medium, geometry=self.geometry,
-                                      tau=self.optical_depth(lt, lgrid), light_grid=lgrid,
+                                      tau=self.optical_depth(lt, lgrid, backend), light_grid=lgrid,
                                       flux_limited=bool(flux_limited), progress_bar=progress_bar)
                 packed = sol.packed()
                 if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
@@ -428,7 +426,7 @@ class Renderer:
                on top of the budget.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
-            the smallest grid spacing; light grid 1×, DESIGN §4.3's default, ≥ 2× the data
+            the smallest grid spacing; light grid 1×, docs/ambient_scattering.rst §3's default, ≥ 2× the data
             resolution; table effort preview, balanced, balanced; ``path_traced`` 16, 64, 256
             samples per pixel.
         step : float, optional
@@ -452,7 +450,7 @@ class Renderer:
             Uniform ambient radiance of ``ambient_occlusion``.
         propagation : {"beer_lambert", "tube"}, default: "beer_lambert"
             How ``ambient_scattering`` attenuates the light front arriving at each ball
-            (DESIGN §4.3): Beer–Lambert transmittance to the ball's entry point, or the paper's
+            (docs/ambient_scattering.rst §3): Beer–Lambert transmittance to the ball's entry point, or the paper's
             tube march through balls (soft shadows). The default is the one measured closer to
             the path-traced reference.
         table_quality : {"preview", "balanced", "accurate"}, optional

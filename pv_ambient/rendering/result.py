@@ -32,7 +32,7 @@ def tonemap_values(x, tonemap="clip"):
 
 @dataclass(eq=False)
 class RenderResult:
-    """What a render returns: linear float32 radiance and alpha, top row first (DESIGN §1).
+    """What a render returns: linear float32 radiance and alpha, top row first (docs/conventions.rst).
 
     Attributes
     ----------

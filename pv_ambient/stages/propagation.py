@@ -1,4 +1,4 @@
-"""Per-light volumes (DESIGN §4.3): Beer–Lambert optical depth and the ambient front Φ.
+"""Per-light volumes (docs/ambient_scattering.rst §3): Beer–Lambert optical depth and the ambient front Φ.
 
 For every light j the renderer needs, at any point x of the medium,
 
@@ -15,7 +15,7 @@ in the number of light-grid nodes.
 
 The light grid covers the medium's box. Its resolution is a quality knob ``light_resolution``:
 a factor on the data resolution, by default 2 where ``max σt·h > 0.3`` (h: the largest grid
-spacing; trilinear interpolation of a coarse transmittance is biased, DESIGN §4.3) and 1
+spacing; trilinear interpolation of a coarse transmittance is biased, docs/ambient_scattering.rst §3) and 1
 elsewhere, capped so a grid has at most ``MAX_NODES`` nodes.
 """
 
@@ -149,7 +149,7 @@ def tube_extinction(ball, grid: LightGrid, radius, table) -> np.ndarray:
     """Tube-march extinction ``ρ_c = −ln F(r σ̄, ā_c)/(2r)`` per channel at the light-grid nodes.
 
     The paper's tube march multiplies the front by ``F(r·σ̄(c_k))`` for every ball of radius r it
-    crosses (step 2r, DESIGN §4.3). Writing each factor as ``exp(−2r·ρ)`` turns the march into an
+    crosses (step 2r, docs/ambient_scattering.rst §3). Writing each factor as ``exp(−2r·ρ)`` turns the march into an
     optical depth of ρ along the light's ray, which the same sweep as σt integrates
     (:func:`optical_depth`). At ball boundaries in a homogeneous medium this is the discrete march
     exactly (``Φ = F^k``); between them it interpolates exponentially rather than linearly, and

@@ -1,4 +1,4 @@
-"""The ``path_traced`` reference (DESIGN §2, §6): unbiased Monte Carlo with a standard-error image.
+"""The ``path_traced`` reference (docs/models.rst, docs/trade.rst): unbiased Monte Carlo with a standard-error image.
 
 :func:`path_trace` runs the path tracer of :mod:`pv_ambient._kernels.pathtrace` progressively,
 ``batch`` samples per pixel at a time, keeping per-pixel float64 sums of ``x`` and ``x²`` so the

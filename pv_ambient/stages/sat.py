@@ -1,4 +1,4 @@
-"""Summed-area table and the ball's mean extinction σ̄ (DESIGN §4.1).
+"""Summed-area table and the ball's mean extinction σ̄ (docs/ambient_scattering.rst §1).
 
 Ambient scattering replaces the medium inside a ball of radius ``r`` around every sample by its
 mean extinction ``σ̄``. As in the paper (Ament, Sadlo & Weiskopf 2013) the ball is approximated
@@ -30,35 +30,12 @@ import math
 
 import numpy as np
 
-from ..inputs.validation import check_real, check_vector, show_value
+from ..inputs.validation import check_array, check_real, check_vector, show_value
 
 __all__ = ["BOX_EDGE_PER_RADIUS", "build_sat", "box_sum", "box_mean", "box_half_edges", "mean_extinction"]
 
 BOX_EDGE_PER_RADIUS = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
 """Edge of the cube with the volume of the unit ball, ``(4π/3)^{1/3} ≈ 1.612``."""
-
-
-def _check_sigma(sigma, name: str = "sigma", *, nonneg: bool = True) -> np.ndarray:
-    """A C-contiguous float32/float64 3-D array of finite (non-negative) values."""
-    try:
-        arr = np.asarray(sigma)
-    except Exception:  # noqa: BLE001 - anything numpy cannot read is a type error here
-        raise TypeError(f"{name} must be a 3-D array of real numbers, got {type(sigma).__name__}") from None
-    if arr.dtype == np.bool_ or arr.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be a 3-D array of real numbers, got dtype {arr.dtype} ({show_value(sigma)})")
-    if arr.ndim != 3:
-        raise ValueError(f"{name} must be a 3-D array (nx, ny, nz), got shape {arr.shape}")
-    if arr.dtype not in (np.float32, np.float64):
-        arr = arr.astype(np.float64)
-    arr = np.ascontiguousarray(arr)
-    if arr.size:
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite, got {int(np.count_nonzero(~np.isfinite(arr)))} non-finite values")
-        if nonneg:
-            lo = float(arr.min())
-            if lo < 0.0:
-                raise ValueError(f"{name} must be non-negative, got minimum {lo!r}")
-    return arr
 
 
 def _check_sat(sat) -> np.ndarray:
@@ -94,7 +71,7 @@ def build_sat(sigma) -> np.ndarray:
     """
     from .._kernels.sat import build_sat_into
 
-    arr = _check_sigma(sigma, nonneg=False)
+    arr = check_array(sigma, "sigma", ndim=3, dtype="float")
     S = np.zeros(tuple(n + 1 for n in arr.shape), np.float64)
     if arr.size:
         build_sat_into(arr, S)
@@ -197,7 +174,7 @@ def _check_spacing(spacing) -> np.ndarray:
 
 
 def mean_extinction(sigma, spacing, radius) -> np.ndarray:
-    """Mean extinction σ̄ over the ball of world ``radius`` around every sample (DESIGN §4.1).
+    """Mean extinction σ̄ over the ball of world ``radius`` around every sample (docs/ambient_scattering.rst §1).
 
     The ball is replaced by the box of equal volume (edge ``radius·(4π/3)^{1/3}``) centred on the
     sample; its integral comes from a float64 summed-area table and is divided by the full box
@@ -231,7 +208,7 @@ def mean_extinction(sigma, spacing, radius) -> np.ndarray:
     """
     from .._kernels.sat import build_sat_into, mean_extinction_grid
 
-    arr = _check_sigma(sigma)
+    arr = check_array(sigma, "sigma", ndim=3, dtype="float", lo=0.0)
     h = _check_spacing(spacing)
     r = check_real(radius, "radius", lo=0.0)
     a = r * BOX_EDGE_PER_RADIUS / (2.0 * h)

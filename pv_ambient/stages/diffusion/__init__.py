@@ -1,4 +1,4 @@
-"""Long-range multiple scattering by diffusion (DESIGN §4b): first-collision source → P1
+"""Long-range multiple scattering by diffusion (docs/diffusion.rst): first-collision source → P1
 (optionally flux-limited) diffusion solve on the data grid → fluence φ and flux F per channel.
 
 The model

@@ -1,4 +1,4 @@
-"""Checked inputs of the diffusion stage (DESIGN §4b): the medium (σt, albedo) validated once per
+"""Checked inputs of the diffusion stage (docs/diffusion.rst): the medium (σt, albedo) validated once per
 scene as :class:`DiffusionMedium`, and the array and mean-cosine checks the other modules share.
 
 This module imports numpy and the input checks only.
@@ -10,24 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...inputs.validation import check_real
+from ...inputs.validation import check_array, check_real
 
-__all__ = ["DiffusionMedium", "as_finite_array", "check_mean_cosine"]
-
-
-def as_finite_array(value, name, ndim_ok=(3,), keep_float=False):
-    """``value`` as a finite float64 array (or any float dtype with ``keep_float``)."""
-    try:
-        arr = np.asarray(value)
-        if not (keep_float and arr.dtype.kind == "f"):
-            arr = arr.astype(np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a numeric array, got {type(value).__name__}") from None
-    if arr.ndim not in ndim_ok:
-        raise ValueError(f"{name} must have {' or '.join(str(n) for n in ndim_ok)} dimensions, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (found {int(np.count_nonzero(~np.isfinite(arr)))} non-finite values)")
-    return arr
+__all__ = ["DiffusionMedium", "check_mean_cosine"]
 
 
 def check_mean_cosine(g, shape):
@@ -36,7 +21,7 @@ def check_mean_cosine(g, shape):
         g = g.mean_cosine
     if np.ndim(g) == 0:
         return check_real(g, "g", lo=-1.0, hi=1.0, lo_open=True, hi_open=True)
-    arr = as_finite_array(g, "g")
+    arr = check_array(g, "g", ndim=3)
     if arr.shape != tuple(shape):
         raise ValueError(f"g must be a number or an array of shape {tuple(shape)}, got shape {arr.shape}")
     if np.any(np.abs(arr) >= 1.0):
@@ -72,14 +57,10 @@ class DiffusionMedium:
         >>> m.sigma_t.dtype, m.shape
         (dtype('float64'), (2, 2, 2))
         """
-        sig = as_finite_array(sigma_t, "sigma_t")
-        if np.any(sig < 0):
-            raise ValueError(f"sigma_t must be >= 0, got minimum {sig.min()!r}")
-        alb = as_finite_array(albedo, "albedo", (3, 4), keep_float=True)
+        sig = check_array(sigma_t, "sigma_t", ndim=3, lo=0.0)
+        alb = check_array(albedo, "albedo", ndim=(3, 4), dtype="float", lo=0.0, hi=1.0)
         if alb.shape[:3] != sig.shape:
             raise ValueError(f"albedo must have shape {sig.shape} or {sig.shape + ('C',)}, got {alb.shape}")
-        if np.any(alb < 0) or np.any(alb > 1):
-            raise ValueError(f"albedo must lie in [0, 1], got values in [{alb.min()}, {alb.max()}]")
         return cls(sig, alb)
 
     @property

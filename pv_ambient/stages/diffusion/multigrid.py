@@ -1,4 +1,4 @@
-"""Multigrid-preconditioned conjugate gradients of the diffusion stage (DESIGN §4b.2).
+"""Multigrid-preconditioned conjugate gradients of the diffusion stage (docs/diffusion.rst §2).
 
 Preconditioned conjugate gradients, matrix-free in Numba (``_kernels/diffusion.py``, which
 also assembles the face couplings and evaluates the flux limiter), float64 throughout. The

@@ -1,4 +1,4 @@
-"""The diffusion stage's result and camera pass (DESIGN §4b.4): :class:`DiffusionSolution` (φ and
+"""The diffusion stage's result and camera pass (docs/diffusion.rst §4): :class:`DiffusionSolution` (φ and
 F on the data grid, trilinear lookup, packing for a kernel) and :func:`camera_source`, the
 multiply-scattered radiance source ``σs (φ + 3 g F·ω_o) / (4π)`` at a sample (ω_o toward the
 camera, g the phase function's mean cosine).

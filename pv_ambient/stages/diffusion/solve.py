@@ -1,4 +1,4 @@
-"""The diffusion solve (DESIGN §4b.2–3): P1 or flux-limited diffusion per channel, and the
+"""The diffusion solve (docs/diffusion.rst §2–3): P1 or flux-limited diffusion per channel, and the
 stage's per-light entry point.
 
 Vacuum floor
@@ -49,8 +49,8 @@ import warnings
 
 import numpy as np
 
-from ...inputs.validation import check_choice, check_int, check_real
-from .medium import DiffusionMedium, as_finite_array, check_mean_cosine
+from ...inputs.validation import check_array, check_choice, check_int, check_real
+from .medium import DiffusionMedium, check_mean_cosine
 from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
 from .sources import direct_irradiance, source_in_medium
 from .solution import DiffusionSolution
@@ -177,7 +177,7 @@ def mean_chord(shape, spacing, association="point"):
 
 
 def solve_diffusion(sigma_t, albedo, g, spacing, Q0, Q1=None, **options):
-    """Solve P1 diffusion for the multiply-scattered light (DESIGN §4b.2–3).
+    """Solve P1 diffusion for the multiply-scattered light (docs/diffusion.rst §2–3).
 
     ``∇·F + σa φ = Q0``, ``F = −D∇φ + 3DQ1``, ``D = 1/(3σt')``, ``σt' = σa + σs(1 − g)``;
     Marshak vacuum boundary ``F·n = φ/2`` on the box faces. Discretisation: :mod:`.system`;
@@ -267,7 +267,7 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
     maxiter = DEFAULT_MAXITER[preconditioner] if maxiter is None else check_int(maxiter, "maxiter", lo=1)
     max_outer = check_int(max_outer, "max_outer", lo=1)
     outer_tol = check_real(outer_tol, "outer_tol", lo=0.0, lo_open=True)
-    q0 = as_finite_array(Q0, "Q0", (3, 4), keep_float=True)  # float32 sources stay float32 until sliced
+    q0 = check_array(Q0, "Q0", ndim=(3, 4), dtype="float")  # float32 sources stay float32 until sliced
     if q0.shape[:3] != shape:
         raise ValueError(f"Q0 must have shape {shape} or {shape + ('C',)}, got {q0.shape}")
     multi = q0.ndim == 4
@@ -281,7 +281,7 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
     if Q1 is None:
         q1 = None
     else:
-        q1 = as_finite_array(Q1, "Q1", (4, 5), keep_float=True)
+        q1 = check_array(Q1, "Q1", ndim=(4, 5), dtype="float")
         if q1.shape != qshape:
             raise ValueError(f"Q1 must have shape {qshape} (matching Q0 {q0.shape}), got {q1.shape}")
     if direction is not None:
@@ -292,7 +292,7 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
     else:
         R = None
     if x0 is not None:
-        x0 = as_finite_array(x0, "x0", (3, 4))
+        x0 = check_array(x0, "x0", ndim=(3, 4))
         if x0.shape != q0.shape:
             raise ValueError(f"x0 must have the shape of phi {q0.shape}, got {x0.shape}")
     if sigma_floor is None:

@@ -1,4 +1,4 @@
-"""Sources of the diffusion stage (DESIGN §4b.1): a light's direct irradiance averaged over each
+"""Sources of the diffusion stage (docs/diffusion.rst §1): a light's direct irradiance averaged over each
 node's control volume, and the first-collision source ``Q0 = σs E_d``, ``Q1 = g σs E_d ω`` it
 gives (W/m³).
 
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...inputs.validation import check_int, check_real
-from .medium import DiffusionMedium, as_finite_array, check_mean_cosine
+from ...inputs.validation import check_array, check_int, check_real
+from .medium import DiffusionMedium, check_mean_cosine
 
 __all__ = ["direct_irradiance", "first_collision_source", "source_in_medium"]
 
@@ -27,7 +27,7 @@ NEAR_CHORD = 4
 
 
 def first_collision_source(sigma_t, albedo, g, E_d, omega):
-    """First-collision source of one light (DESIGN §4b.1): ``Q0 = σs E_d``, ``Q1 = g σs E_d ω``.
+    """First-collision source of one light (docs/diffusion.rst §1): ``Q0 = σs E_d``, ``Q1 = g σs E_d ω``.
 
     Parameters
     ----------
@@ -69,12 +69,12 @@ def source_in_medium(medium, g, E_d, omega):
     albedo are not scanned again: once per scene, not once per light)."""
     sig, alb = medium.sigma_t, medium.albedo
     gg = check_mean_cosine(g, sig.shape)
-    E = as_finite_array(E_d, "E_d", (3, 4))
+    E = check_array(E_d, "E_d", ndim=(3, 4))
     if E.shape[:3] != sig.shape:
         raise ValueError(f"E_d must have shape {sig.shape} or {sig.shape + ('C',)}, got {E.shape}")
     if np.any(E < 0):
         raise ValueError(f"E_d must be >= 0, got minimum {E.min()!r}")
-    om = as_finite_array(omega, "omega", (4,))
+    om = check_array(omega, "omega", ndim=(4,))
     if om.shape != sig.shape + (3,):
         raise ValueError(f"omega must have shape {sig.shape + (3,)}, got {om.shape}")
     multi = alb.ndim == 4 or E.ndim == 4
@@ -133,7 +133,7 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     far_subsamples = check_int(far_subsamples, "far_subsamples", lo=1)
     near = check_real(near, "near", lo=0.0)
     near_directions = check_int(near_directions, "near_directions", lo=1)
-    tau = np.ascontiguousarray(as_finite_array(tau, "tau"))
+    tau = np.ascontiguousarray(check_array(tau, "tau", ndim=3))
     M = np.ascontiguousarray(np.asarray(geometry.index_to_world, np.float64)[:3, :])
     lo = np.asarray(geometry.box_lo, np.float64)
     hi = np.asarray(geometry.box_hi, np.float64)

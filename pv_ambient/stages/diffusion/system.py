@@ -1,4 +1,4 @@
-"""The finite-volume system of the diffusion stage (DESIGN §4b.2): control volumes, couplings,
+"""The finite-volume system of the diffusion stage (docs/diffusion.rst §2): control volumes, couplings,
 box-face terms, the flux at the nodes and the power balance.
 
 Node-centred finite volumes on the data grid: node (i, j, k) owns the control volume

@@ -1,4 +1,4 @@
-"""Preintegrated homogeneous-ball tables D and F (DESIGN §4.2): estimate, tabulate, store, look up.
+"""Preintegrated homogeneous-ball tables D and F (docs/ambient_scattering.rst §2): estimate, tabulate, store, look up.
 
 The ambient-scattering model replaces the medium around every sample by a homogeneous ball of
 radius r and optical radius ``τ = r·σ̄``, albedo ``a`` and the scene's phase function, lit by a
@@ -17,9 +17,9 @@ docstring gives the estimator), each with its standard error:
     the exit plane z = +r at (0, 0, r). F(0) = 1, 0 < F ≤ 1, F = e^{−2τ} at a = 0; for small τ,
     E_diff ≈ 4π·a·τ·∫₀¹ p(μ) μ² dμ (a·τ/3 when isotropic).
 
-Departure from DESIGN §4.2: the unscattered irradiance inside the ball is computed with the exact
-chord from the ball's entry point, ``exp(−σ̄(y_z − z_entry(y)))`` with
-``z_entry = −sqrt(r² − y_x² − y_y²)``; DESIGN's ``e^{−σ̄(y_z + r)}`` holds only on the z axis.
+The unscattered irradiance inside the ball uses the exact chord from the ball's entry point,
+``exp(−σ̄(y_z − z_entry(y)))`` with ``z_entry = −sqrt(r² − y_x² − y_y²)`` (docs/ambient_scattering.rst
+§2); the simpler ``e^{−σ̄(y_z + r)}`` holds only on the z axis.
 
 Modules
 -------

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..._kernels import preint as _k
 from ...inputs.phase import as_phase
-from ...inputs.validation import check_int, check_real
+from ...inputs.validation import check_array, check_int, check_real
 
 __all__ = [
     "BEAM_MIX",
@@ -27,7 +27,6 @@ __all__ = [
     "N_CHUNKS",
     "BallEstimate",
     "ball_exitance",
-    "check_nodes",
     "simulate_ball",
     "simulate_nodes",
 ]
@@ -129,19 +128,6 @@ def simulate_nodes(kind, g, iso, taus, thetas, a_nodes, n_paths, seed, progress_
     return BallEstimate(D=D, D_err=D_err, F=F, F_err=F_err, F_diff=Fd)
 
 
-def check_nodes(values, name, lo, hi) -> np.ndarray:
-    """A non-empty 1-D float64 array with every value finite and in [lo, hi], or raise naming ``name``."""
-    try:
-        arr = np.atleast_1d(np.asarray(values, dtype=np.float64))
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an array of numbers, got {values!r}") from None
-    if arr.ndim != 1 or arr.size == 0:
-        raise ValueError(f"{name} must be a non-empty 1-D array, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr < lo) or np.any(arr > hi):
-        raise ValueError(f"{name} must lie in [{lo}, {hi}], got {arr!r}")
-    return arr
-
-
 def simulate_ball(phase=None, tau=1.0, theta=0.0, albedo=1.0, *, n_paths=4096, seed=0, progress_bar=False):
     """Estimate D and F at arbitrary nodes (the raw estimator behind the tables).
 
@@ -165,9 +151,9 @@ def simulate_ball(phase=None, tau=1.0, theta=0.0, albedo=1.0, *, n_paths=4096, s
         float64 arrays ``D, D_err (n_a, n_tau, n_theta)`` and ``F, F_err, F_diff (n_a, n_tau)``.
     """
     kind, g, iso = as_phase(phase).canonical()
-    taus = check_nodes(tau, "tau", 0.0, np.inf)
-    thetas = check_nodes(theta, "theta", 0.0, math.pi)
-    a = check_nodes(albedo, "albedo", 0.0, 1.0)
+    taus = check_array(tau, "tau", ndim=1, nonempty=True, promote_scalar=True, lo=0.0, hi=np.inf)
+    thetas = check_array(theta, "theta", ndim=1, nonempty=True, promote_scalar=True, lo=0.0, hi=math.pi)
+    a = check_array(albedo, "albedo", ndim=1, nonempty=True, promote_scalar=True, lo=0.0, hi=1.0)
     if np.any(np.diff(a) < 0):
         raise ValueError(f"albedo must be ascending, got {a!r}")
     n = check_int(n_paths, "n_paths", lo=2)
@@ -189,7 +175,7 @@ def ball_exitance(phase=None, tau=1.0, albedo=1.0, *, n_paths=65536, seed=0):
     """
     kind, g, iso = as_phase(phase).canonical()
     R = check_real(tau, "tau", lo=0.0, lo_open=True)
-    a = check_nodes(albedo, "albedo", 0.0, 1.0)
+    a = check_array(albedo, "albedo", ndim=1, nonempty=True, promote_scalar=True, lo=0.0, hi=1.0)
     if np.any(np.diff(a) < 0):
         raise ValueError(f"albedo must be ascending, got {a!r}")
     n = check_int(n_paths, "n_paths", lo=2)

@@ -38,8 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...inputs.phase import PhaseFunction, as_phase
-from ...inputs.validation import check_int
-from .estimator import check_nodes, simulate_nodes
+from ...inputs.validation import check_array, check_int
+from .estimator import simulate_nodes
 
 __all__ = [
     "ALBEDO_NODES",
@@ -232,9 +232,9 @@ class PreintegratedTable:
         a : array_like
             Albedo in [0, 1] (clamped to the table's nodes).
         """
-        c = _check_array(cos_theta, "cos_theta", -1.0 - 1e-6, 1.0 + 1e-6)
-        t = _check_array(tau, "tau", 0.0, np.inf)
-        al = _check_array(a, "a", 0.0, 1.0)
+        c = check_array(cos_theta, "cos_theta", finite="nan", lo=-1.0 - 1e-6, hi=1.0 + 1e-6)
+        t = check_array(tau, "tau", finite="nan", lo=0.0, hi=np.inf)
+        al = check_array(a, "a", finite="nan", lo=0.0, hi=1.0)
         c, t, al = np.broadcast_arrays(c, t, al)
         D = self.D.astype(np.float64)
         ia, ta = self._albedo_coord(al)
@@ -254,8 +254,8 @@ class PreintegratedTable:
 
     def f(self, tau, a):
         """F(τ, a) = e^{−2τ} + interpolated E_diff (vectorised; the same rule as ``f_lookup``)."""
-        t = _check_array(tau, "tau", 0.0, np.inf)
-        al = _check_array(a, "a", 0.0, 1.0)
+        t = check_array(tau, "tau", finite="nan", lo=0.0, hi=np.inf)
+        al = check_array(a, "a", finite="nan", lo=0.0, hi=1.0)
         t, al = np.broadcast_arrays(t, al)
         Fd = self.F_diff.astype(np.float64)
         ia, ta = self._albedo_coord(al)
@@ -271,19 +271,6 @@ class PreintegratedTable:
             f"PreintegratedTable(kind={self.kind}, g={self.g}, quality={self.quality!r}, "
             f"n_a={len(self.a_nodes)}, n_tau={len(self.tau_nodes)}, n_theta={len(self.theta_nodes)})"
         )
-
-
-def _check_array(values, name, lo, hi):
-    """A float64 array with every value in [lo, hi] (NaN rejected; ±inf only if a bound is)."""
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be numbers, got {values!r}") from None
-    if np.any(np.isnan(arr)):
-        raise ValueError(f"{name} must not contain NaN")
-    if arr.size and (np.min(arr) < lo or np.max(arr) > hi):
-        raise ValueError(f"{name} must lie in [{lo}, {hi}], got values from {np.min(arr)!r} to {np.max(arr)!r}")
-    return arr
 
 
 def compute_table(
@@ -315,7 +302,10 @@ def compute_table(
         Base paths per τ node (see :data:`PATH_BOOST`).
     """
     kind, g, iso = as_phase(phase).canonical()
-    a = ALBEDO_NODES.copy() if albedo_nodes is None else check_nodes(albedo_nodes, "albedo_nodes", 0.0, 1.0)
+    if albedo_nodes is None:
+        a = ALBEDO_NODES.copy()
+    else:
+        a = check_array(albedo_nodes, "albedo_nodes", ndim=1, nonempty=True, promote_scalar=True, lo=0.0, hi=1.0)
     if np.any(np.diff(a) <= 0):
         raise ValueError(f"albedo_nodes must be strictly ascending, got {a!r}")
     nt = check_int(n_tau, "n_tau", lo=3)
