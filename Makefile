@@ -10,7 +10,7 @@ export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache
 export MPLBACKEND := Agg
 
-.PHONY: demo test install clean bench docs gallery
+.PHONY: demo test install clean bench docs gallery install-check
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -46,6 +46,17 @@ docs: $(DOCS_STAMP)
 
 # the former name of the target (the gallery is part of the docs build)
 gallery: docs
+
+# A NON-editable install (pip install .) into a fresh venv, then a smoke run from outside the checkout:
+# every model, the accessor entry point, the scene CLI (an editable install would hide a missing sub-package
+# or data file).
+INSTALL_CHECK := build/install-check
+install-check:
+	rm -rf $(INSTALL_CHECK)
+	$(PYTHON) -m venv $(INSTALL_CHECK)
+	$(INSTALL_CHECK)/bin/python -m pip install -q --upgrade pip
+	$(INSTALL_CHECK)/bin/python -m pip install -q .
+	cd $(INSTALL_CHECK) && NUMBA_CACHE_DIR=$(CURDIR)/$(INSTALL_CHECK)/numba_cache bin/python $(CURDIR)/tests/_install_smoke.py
 
 clean:
 	rm -rf $(VENV) .numba_cache demo_output build *.egg-info docs/auto_examples docs/sg_execution_times.rst
