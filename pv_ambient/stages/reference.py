@@ -121,6 +121,7 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
     >>> res.radiance.shape, res.std_error.shape, res.metadata["spp"]
     ((6, 8, 3), (6, 8, 3), 4)
     """
+    from .._kernels import records as K
     from .._kernels.pathtrace import pathtrace_image
     from ..inputs.camera import as_camera
     from ..inputs.phase import as_phase
@@ -154,17 +155,15 @@ def path_trace(renderer, camera=None, window_size=None, *, phase=None, samples_p
         sum_sq[:] = bg * bg * spp
         n = spp
     else:
-        o = renderer.optics
-        kind, vec, power = pack_lights(renderer.lights)
-        args = (cam.params(size), geom.world_to_index, geom.box_lo, geom.box_hi, o.mode, o.field, o.table,
-                o.lut_lo, o.lut_inv, o.aux, renderer.majorant(block), block, kind, vec, power, ph.kind, float(ph.g),
-                light_clamp * light_clamp, bg, depth, rr_depth, seed)
+        args = (K.view_of(cam, size, geom), K.medium_of(renderer.optics, renderer.majorant(block), block),
+                K.lights_of(pack_lights(renderer.lights), ph, light_clamp * light_clamp),
+                K.Paths(bg, depth, rr_depth, seed))
         bar = None
         sums = None
         if backend == "cuda":
             from .. import backend as bk
 
-            bk.check_fits(renderer.device_cache, [a for a in args if isinstance(a, np.ndarray)],
+            bk.check_fits(renderer.device_cache, K.arrays(args),
                           sum_rad.nbytes + sum_sq.nbytes + sum_hit.nbytes)
             sums = bk.PathSums(h, w)
         if progress_bar:
