@@ -73,40 +73,6 @@ def sigma_lookup(medium, x, y, z):
 
 
 @scalar
-def tentative_start(px, py, pz, qx, qy, qz, t0, maj, block):
-    """The tentative-collision state of ray ``p + t·q`` from ``t0``: ``(walk, t, tb, m, inv)``, the
-    majorant walk (:func:`.majorant.walk_start`), the last tentative collision ``t``, the current
-    block's exit ``tb``, majorant ``m`` and ``1/m`` (no block entered yet)."""
-    return walk_start(px, py, pz, qx, qy, qz, t0, maj, block), t0, t0, 0.0, 0.0
-
-
-@scalar
-def next_tentative(state, px, py, pz, qx, qy, qz, t1, medium, k, dim):
-    """The next tentative collision of the blocks' homogeneous majorant media before ``t1``:
-    ``(state', found, t, s, k0, k1, f, m, inv, dim)`` with σt = ``s`` at ``t`` (table location
-    ``k0, k1, f``) and the block's majorant ``m`` (``inv = 1/m``); ``found`` is False when the ray
-    reaches ``t1`` first.
-
-    Inside a block: ``t += −ln(1 − u)/m``; reaching the block's exit restarts the exponential
-    at the next block's entry (memoryless); blocks of majorant 0 are crossed in one step.
-    """
-    walk, t, tb, m, inv = state
-    while True:
-        if m > 0.0:
-            u = draw(k, dim)
-            dim += 1
-            t -= math.log1p(-u) * inv
-            if t < tb:
-                s, k0, k1, f = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
-                return (walk, t, tb, m, inv), True, t, s, k0, k1, f, m, inv, dim
-        if walk[3] >= t1:
-            return (walk, t, tb, m, inv), False, t1, 0.0, 0, 0, 0.0, m, inv, dim
-        walk, t, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, medium.maj, medium.block)
-        if m > 0.0:
-            inv = 1.0 / m
-
-
-@scalar
 def delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim):
     """Sample the first real collision on ``[t0, t1)`` by delta tracking through ``medium`` (a
     :class:`.records.Medium`).
@@ -115,17 +81,26 @@ def delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim):
     interval (then ``t = t1``); otherwise ``t`` is the collision, ``sigma`` σt there and
     ``(k0, k1, f)`` its table location.
     """
-    state = tentative_start(px, py, pz, qx, qy, qz, t0, medium.maj, medium.block)
-    while True:
-        state, found, t, s, k0, k1, f, m, _, dim = next_tentative(state, px, py, pz, qx, qy, qz, t1, medium, k,
-                                                                  dim)
-        if not found:
-            return False, t1, 0.0, 0, 0, 0.0, dim
-        # Accept the tentative collision as real with probability σt/m.
-        u = draw(k, dim)
-        dim += 1
-        if u * m < s:
-            return True, t, s, k0, k1, f, dim
+    maj, block = medium.maj, medium.block
+    walk = walk_start(px, py, pz, qx, qy, qz, t0, maj, block)
+    while walk[3] < t1:
+        walk, t, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
+        if m > 0.0:
+            # Tentative collisions of the block's homogeneous majorant medium; reaching the
+            # block's exit restarts them in the next block (memoryless).
+            inv = 1.0 / m
+            while True:
+                u = draw(k, dim)
+                dim += 1
+                t -= math.log1p(-u) * inv
+                if t >= tb:
+                    break
+                s, k0, k1, f = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
+                u = draw(k, dim)
+                dim += 1
+                if u * m < s:
+                    return True, t, s, k0, k1, f, dim
+    return False, t1, 0.0, 0, 0, 0.0, dim
 
 
 @scalar
@@ -135,24 +110,32 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, rr_below, k, dim):
     ``rr_below`` > 0 switches on Russian roulette once the estimate drops below it (0: never).
     Returns ``(T, dim)``.
     """
+    maj, block = medium.maj, medium.block
     T = 1.0
-    state = tentative_start(px, py, pz, qx, qy, qz, t0, medium.maj, medium.block)
-    while True:
-        state, found, _, s, _, _, _, _, inv, dim = next_tentative(state, px, py, pz, qx, qy, qz, t1, medium, k,
-                                                                  dim)
-        if not found:
-            return T, dim
-        # Weight by the null-collision probability; max() guards rounding above σ̄.
-        T *= max(1.0 - s * inv, 0.0)
-        if T <= 0.0:
-            return 0.0, dim
-        if T < rr_below:
-            # Russian roulette: survive with probability T/rr_below, weight rr_below.
-            u = draw(k, dim)
-            dim += 1
-            if u * rr_below >= T:
-                return 0.0, dim
-            T = rr_below
+    walk = walk_start(px, py, pz, qx, qy, qz, t0, maj, block)
+    while walk[3] < t1:
+        walk, t, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
+        if m > 0.0:
+            inv = 1.0 / m
+            while True:
+                u = draw(k, dim)
+                dim += 1
+                t -= math.log1p(-u) * inv
+                if t >= tb:
+                    break
+                s, _, _, _ = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
+                # Weight by the null-collision probability; max() guards rounding above σ̄.
+                T *= max(1.0 - s * inv, 0.0)
+                if T <= 0.0:
+                    return 0.0, dim
+                if T < rr_below:
+                    # Russian roulette: survive with probability T/rr_below, weight rr_below.
+                    u = draw(k, dim)
+                    dim += 1
+                    if u * rr_below >= T:
+                        return 0.0, dim
+                    T = rr_below
+    return T, dim
 
 
 # --- thin serial drivers for the tests ---------------------------------------------------
