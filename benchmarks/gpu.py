@@ -125,7 +125,7 @@ def compile_only(cc):
     sig_l, B, is_point, lx, ly, lz, ax, sign, jump, out, hist = captured["sweep"]
     rc, pt = captured["raycast"], captured["pathtrace"]
     # kernel argument order: the scalar's arguments without the thread indices, then row0, row1
-    kargs = {"raycast": rc[:11] + rc[13:] + rc[11:13], "pathtrace": pt[:-5] + pt[-3:] + pt[-5:-3],
+    kargs = {"raycast": rc[:8] + rc[10:] + rc[8:10], "pathtrace": pt[:-5] + pt[-3:] + pt[-5:-3],
              "sweep_layer": (sig_l, B, is_point, lx, ly, lz, ax, ax, ax, hist[0], out, hist[0], 0, 1)}
     sigs = {name: (kc.grid_function(*kc.KERNELS[name]), tuple(numba.typeof(v) for v in kargs[name]))
             for name in kargs}

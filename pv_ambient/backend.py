@@ -128,8 +128,11 @@ class DeviceCache:
         self._items[id(arr)] = (arr, dev, self._launch)
 
     def args(self, args):
-        """``args`` with every numpy array replaced by its device copy."""
-        return tuple(self.get(a) if isinstance(a, np.ndarray) else a for a in args)
+        """``args`` with every numpy array, at any depth of its records (:mod:`._kernels.records`),
+        replaced by its device copy."""
+        from ._kernels.records import map_arrays
+
+        return map_arrays(self.get, tuple(args))
 
     def tick(self):
         """End of a launch: drop entries unused for ``keep`` launches."""
@@ -169,19 +172,17 @@ def _launch():
 def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     """Run the ray-cast kernel on rows [row0, row1) of ``rad``/``alpha`` (host arrays, filled in).
 
-    ``args`` are :func:`pv_ambient._kernels.raycast.raycast_image`'s arguments without the rows
-    and outputs, split at the row position: ``(head, tail)``."""
+    ``args`` are :func:`pv_ambient._kernels.raycast.raycast_image`'s arguments before the rows
+    and outputs: the model id and the records."""
     from numba import cuda
 
     from ._kernels.cuda import BLOCK, grid_for, raycast_kernel
 
-    head, tail = args
     h, w = alpha.shape
     d_rad = cuda.device_array(rad.shape, rad.dtype)
     d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
     with _launch():
-        raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(head), *cache.args(tail), d_rad, d_alpha,
-                                                       row0, row1)
+        raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(args), d_rad, d_alpha, row0, row1)
     rad[row0:row1] = d_rad.copy_to_host()[row0:row1]
     alpha[row0:row1] = d_alpha.copy_to_host()[row0:row1]
     cache.tick()
@@ -204,8 +205,8 @@ class PathSums:
 
 
 def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
-    """Add samples [s0, s1) of every pixel to the device sums (``args`` as ``pathtrace_image``'s
-    up to ``seed``)."""
+    """Add samples [s0, s1) of every pixel to the device sums (``args``: ``pathtrace_image``'s
+    records)."""
     from ._kernels.cuda import BLOCK, grid_for, pathtrace_kernel
 
     h, w = sums.sum_hit.shape

@@ -140,3 +140,19 @@ def test_physics_exists_once():
     assert "pathtrace_pixel(" in inspect.getsource(pathtrace.pathtrace_image.py_func)
     assert "sweep_node(" in inspect.getsource(lightvol.sweep_tau.py_func)
     assert "math." not in src and "exp(" not in src  # no arithmetic of the physics in the drivers
+    # the scene travels in the records of _kernels/records.py, not in ~40 positional arguments
+    for fn in (raycast.raycast_pixel, pathtrace.pathtrace_pixel):
+        assert len(inspect.signature(fn.py_func).parameters) <= 12, fn
+
+
+def test_records_arrays_and_map_arrays():
+    """The kernels' argument records: every array inside nested records is found, and replaced in
+    place by map_arrays (DeviceCache.args) with the record types kept."""
+    from pv_ambient._kernels import records as K
+
+    a, b, c = np.zeros(3), np.ones((2, 2)), np.zeros((1, 1, 1))
+    args = (3, K.Diffusion(a, 0.5), (b, 2.0, K.Paths(c, 4, 2, 7)))
+    assert [x is y for x, y in zip(K.arrays(args), (a, b, c))] == [True] * 3
+    out = K.map_arrays(lambda x: x.shape, args)
+    assert out == (3, K.Diffusion((3,), 0.5), ((2, 2), 2.0, K.Paths((1, 1, 1), 4, 2, 7)))
+    assert type(out[1]) is K.Diffusion and type(out[2][2]) is K.Paths

@@ -19,6 +19,7 @@ from scipy.ndimage import map_coordinates
 
 import pv_ambient as pa
 from pv_ambient._kernels import rng
+from pv_ambient._kernels.records import medium_of
 from pv_ambient._kernels.tracking import draw, free_flight_array, transmittance_array
 from pv_ambient.inputs.camera import Camera
 
@@ -65,8 +66,7 @@ def index_segment(r, origin, direction):
 
 
 def tracker_args(r, p, q, t0, t1, block):
-    o = r.optics
-    return (*p, *q, t0, t1, o.mode, o.field, o.table, o.lut_lo, o.lut_inv, r.majorant(block), block)
+    return (*p, *q, t0, t1, medium_of(r.optics, r.majorant(block), block))
 
 
 def transmittance_samples(r, origin, direction, n, seed, block=4, rr_below=0.0):
@@ -119,6 +119,33 @@ def test_draw_matches_rng_uniform_bitwise():
 
 
 # --- trackers ------------------------------------------------------------------------------------
+
+
+def test_majorant_walk_visits_the_blocks_in_order():
+    """walk_start/walk_step (the one DDA of the trackers): contiguous intervals from t0 to t1, each
+    inside the block the walk reports (its midpoint located there by block_at)."""
+    from pv_ambient._kernels.majorant import block_at, walk_start, walk_step
+
+    rs = np.random.default_rng(5)
+    maj = rs.random((3, 4, 5))
+    block = 4
+    for _ in range(200):
+        p = rs.uniform(-1.0, 20.0, 3)
+        q = rs.normal(size=3)
+        q[rs.random(3) < 0.2] = 0.0  # rays along grid planes too
+        t1 = rs.uniform(0.5, 40.0)
+        walk = walk_start(*p, *q, 0.0, maj, block)
+        t_prev = 0.0
+        n = 0
+        while walk[3] < t1:
+            a, b, c = walk[:3]
+            walk, ta, tb, m = walk_step(walk, *p, *q, t1, maj, block)
+            assert ta == t_prev and ta <= tb <= t1 and m == maj[a, b, c]
+            if tb > ta:
+                assert block_at(*(p + 0.5 * (ta + tb) * q), maj, block) == (a, b, c)
+            t_prev = tb
+            n += 1
+        assert t_prev == t1 and n <= 3 + 4 + 5
 
 
 @pytest.mark.parametrize("association", ["point", "cell"])

@@ -6,6 +6,14 @@ samples on its upper faces, so the trilinear field inside the block depends only
 In LUT mode the bound is the table's maximum over the entries between the block's minimum and
 maximum scalar (a non-monotone TF can peak between two corner values); in GRID mode it is the
 maximum of the σt samples.
+
+The walk through the grid is written once, here: :func:`block_at` locates a point's block,
+:func:`block_span` gives a block's exit along a ray, and :func:`walk_start` / :func:`walk_step`
+step the blocks a ray crosses in order (3D DDA) for the null-collision trackers
+(:mod:`.tracking`). The ray cast (:mod:`.raycast`) locates the block of each segment's midpoint
+and skips an empty one to its :func:`block_span` exit. The first and last block along each axis
+extend to ±∞ (lookups clamp to the boundary samples there), so their exit on that side is
+``inf`` and the walk never leaves the grid.
 """
 
 from __future__ import annotations
@@ -58,19 +66,78 @@ def block_of(x, block, m):
 
 
 @scalar
-def block_exit(ox, oy, oz, dx, dy, dz, a, b, c, block):
-    """Ray parameter where the ray leaves block (a, b, c) (largest slab entry is irrelevant)."""
-    t = math.inf
-    if dx > 0.0:
-        t = min(t, ((a + 1) * block - ox) / dx)
-    elif dx < 0.0:
-        t = min(t, (a * block - ox) / dx)
-    if dy > 0.0:
-        t = min(t, ((b + 1) * block - oy) / dy)
-    elif dy < 0.0:
-        t = min(t, (b * block - oy) / dy)
-    if dz > 0.0:
-        t = min(t, ((c + 1) * block - oz) / dz)
-    elif dz < 0.0:
-        t = min(t, (c * block - oz) / dz)
-    return t
+def block_at(x, y, z, maj, block):
+    """Block (a, b, c) of majorant grid ``maj`` that holds index-space point (x, y, z) (clamped)."""
+    mx, my, mz = maj.shape
+    return block_of(x, block, mx), block_of(y, block, my), block_of(z, block, mz)
+
+
+@scalar
+def axis_exit(p, q, a, block, m):
+    """Ray parameter where ``p + t·q`` leaves slab ``a`` of ``m`` slabs of width ``block``.
+
+    The first slab extends to −∞ and the last to +∞ (lookups clamp there), so the exit on
+    those sides, and along an axis the ray does not move on, is ``inf``.
+    """
+    if q > 0.0:
+        if a >= m - 1:
+            return math.inf
+        return ((a + 1) * block - p) / q
+    if q < 0.0:
+        if a <= 0:
+            return math.inf
+        return (a * block - p) / q
+    return math.inf
+
+
+@scalar
+def block_span(px, py, pz, qx, qy, qz, a, b, c, maj, block, t, t1):
+    """Exits of block (a, b, c) of ``maj`` along each axis and overall, ``(tx, ty, tz, tb)``;
+    ``tb`` is clipped to ``t1`` and never behind ``t``, whatever the rounding."""
+    mx, my, mz = maj.shape
+    tx = axis_exit(px, qx, a, block, mx)
+    ty = axis_exit(py, qy, b, block, my)
+    tz = axis_exit(pz, qz, c, block, mz)
+    return tx, ty, tz, max(min(min(tx, ty), min(tz, t1)), t)
+
+
+@scalar
+def next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz):
+    """The block entered at ``tb``: step every axis whose exit is reached (DDA)."""
+    if tx <= tb:
+        a += 1 if qx > 0.0 else -1
+    if ty <= tb:
+        b += 1 if qy > 0.0 else -1
+    if tz <= tb:
+        c += 1 if qz > 0.0 else -1
+    return a, b, c
+
+
+# --- the walk: the blocks a ray crosses, in order (3D DDA, Amanatides & Woo 1987) -----------
+#
+# State ``(a, b, c, t)``: the current block and where the ray enters it. No generators or
+# closures (CUDA device code): the walk is a tuple and a step function,
+#
+#     walk = walk_start(px, py, pz, qx, qy, qz, t0, maj, block)
+#     while walk[3] < t1:
+#         walk, ta, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
+#         ...  # [ta, tb) lies in one block of majorant m
+
+
+@scalar
+def walk_start(px, py, pz, qx, qy, qz, t0, maj, block):
+    """The walk of ray ``p + t·q`` (index space) from ``t0``: its first block and ``t0``."""
+    a, b, c = block_at(px + t0 * qx, py + t0 * qy, pz + t0 * qz, maj, block)
+    return a, b, c, t0
+
+
+@scalar
+def walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block):
+    """``(walk', ta, tb, m)``: the current block's interval ``[ta, tb)`` (``tb`` clipped to ``t1``),
+    its majorant ``m``, and the walk advanced to the next block at ``tb``."""
+    a, b, c, t = walk
+    tx, ty, tz, tb = block_span(px, py, pz, qx, qy, qz, a, b, c, maj, block, t, t1)
+    m = maj[a, b, c]
+    if tb < t1:
+        a, b, c = next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz)
+    return (a, b, c, tb), t, tb, m

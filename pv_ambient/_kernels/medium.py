@@ -9,7 +9,7 @@ from ``field`` and albedo/emission from ``aux`` (physical arrays, or a baked TF)
 from __future__ import annotations
 
 from ._jit import scalar
-from .interp import trilinear, trilinear_c
+from .interp import trilinear
 
 MODE_LUT = 0
 MODE_GRID = 1
@@ -40,27 +40,3 @@ def sigma_at(mode, field, table, lut_lo, lut_inv, x, y, z):
         return s
     k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
     return lut_value(table, k0, k1, f, 0)
-
-
-@scalar
-def ea_at(mode, field, table, lut_lo, lut_inv, aux, x, y, z):
-    """(σt, colour rgb) for the emission–absorption model (colour = emission for physical TFs)."""
-    s = trilinear(field, x, y, z)
-    if mode == MODE_GRID:
-        return (s, trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5))
-    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
-    return (lut_value(table, k0, k1, f, 0), lut_value(table, k0, k1, f, 7),
-            lut_value(table, k0, k1, f, 8), lut_value(table, k0, k1, f, 9))
-
-
-@scalar
-def optics_at(mode, field, table, lut_lo, lut_inv, aux, x, y, z):
-    """(σt, albedo r, g, b, emission r, g, b) at index-space point (x, y, z)."""
-    s = trilinear(field, x, y, z)
-    if mode == MODE_GRID:
-        return (s, trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
-                trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5))
-    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
-    return (lut_value(table, k0, k1, f, 0),
-            lut_value(table, k0, k1, f, 1), lut_value(table, k0, k1, f, 2), lut_value(table, k0, k1, f, 3),
-            lut_value(table, k0, k1, f, 4), lut_value(table, k0, k1, f, 5), lut_value(table, k0, k1, f, 6))

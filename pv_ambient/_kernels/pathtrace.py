@@ -55,18 +55,19 @@ RR_MAX_SURVIVAL = 0.999
 
 
 @scalar
-def direct_light_nee(wx, wy, wz, dx, dy, dz, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, maj, block,
-                     lkind, lvec, lpow, pkind, g, d2min, k, dim):
+def direct_light_nee(wx, wy, wz, dx, dy, dz, view, medium, lights, k, dim):
     """Σ_l E_l T_l p(θ_l) (rgb) at world point w for a path travelling along d; T_l by ratio tracking.
 
     Returns ``(r, g, b, dim)``.
     """
+    w2i, lo, hi = view.w2i, view.lo, view.hi
+    lkind, lvec = lights.kind, lights.vec
     sr = 0.0
     sg = 0.0
     sb = 0.0
     px, py, pz = affine_point(w2i, wx, wy, wz)
     for l in range(lkind.shape[0]):
-        er, eg, eb, lx, ly, lz = light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min)
+        er, eg, eb, lx, ly, lz = light_at(l, lights, wx, wy, wz)
         if er <= 0.0 and eg <= 0.0 and eb <= 0.0:
             continue
         # Shadow ray toward the light: to the light itself, or out of the box (directional).
@@ -83,11 +84,10 @@ def direct_light_nee(wx, wy, wz, dx, dy, dz, w2i, lo, hi, mode, field, table, lu
         t1 = min(t1, dist)
         T = 1.0
         if t0 < t1:
-            T, dim = ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block,
-                                 SHADOW_RR_BELOW, k, dim)
+            T, dim = ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, SHADOW_RR_BELOW, k, dim)
         if T > 0.0:
             # Light propagates along (lx, ly, lz) and leaves toward the camera along −d.
-            w = T * phase_eval(pkind, g, -(lx * dx + ly * dy + lz * dz))
+            w = T * phase_eval(lights.pkind, lights.g, -(lx * dx + ly * dy + lz * dz))
             sr += er * w
             sg += eg * w
             sb += eb * w
@@ -95,12 +95,14 @@ def direct_light_nee(wx, wy, wz, dx, dy, dz, w2i, lo, hi, mode, field, table, lu
 
 
 @scalar
-def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
-               lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, pixel, sample):
-    """One path sample of pixel (i, j) (see the module docstring).
+def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
+    """One path sample of pixel (i, j) (see the module docstring); the scene in the records of
+    :mod:`.records` (``paths``: background, depths, seed).
 
     Returns ``(r, g, b, hit)``: the radiance estimate and 1.0 when the primary ray collided.
     """
+    cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
+    bg, max_depth, rr_depth, seed = paths.bg, paths.max_depth, paths.rr_depth, paths.seed
     k = key(seed, pixel, sample)
     dim = 0
     ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, width, height)
@@ -124,8 +126,7 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
         k1 = 0
         f = 0.0
         if t0 < t1:
-            collided, t, _, k0, k1, f, dim = delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo,
-                                                         lut_inv, maj, block, k, dim)
+            collided, t, _, k0, k1, f, dim = delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim)
         if not collided:
             # Escaped: only the primary ray sees the background.
             if depth == 0:
@@ -142,7 +143,7 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
         wx = ox + t * dx
         wy = oy + t * dy
         wz = oz + t * dz
-        ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z)
+        ar, ag, ab, er, eg, eb = medium_albedo_emission(medium, k0, k1, f, x, y, z)
         # Emission: collision density σt·T, so weight σa/σt = 1 − a.
         lr += br * (1.0 - ar) * er
         lg += bgc * (1.0 - ag) * eg
@@ -155,8 +156,7 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
         if q <= 0.0:
             break
         # Next-event estimation to every light.
-        nr, ng, nb, dim = direct_light_nee(wx, wy, wz, dx, dy, dz, w2i, lo, hi, mode, field, table, lut_lo, lut_inv,
-                                           maj, block, lkind, lvec, lpow, pkind, g, d2min, k, dim)
+        nr, ng, nb, dim = direct_light_nee(wx, wy, wz, dx, dy, dz, view, medium, lights, k, dim)
         lr += br * nr
         lg += bgc * ng
         lb += bb * nb
@@ -176,7 +176,7 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
         u1 = draw(k, dim)
         u2 = draw(k, dim + 1)
         dim += 2
-        dx, dy, dz, _ = phase_sample(pkind, g, u1, u2, dx, dy, dz)
+        dx, dy, dz, _ = phase_sample(lights.pkind, lights.g, u1, u2, dx, dy, dz)
         # Renormalise so rounding cannot drift over many bounces.
         inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
         dx *= inv
@@ -189,17 +189,13 @@ def trace_path(cam, i, j, width, height, w2i, lo, hi, mode, field, table, lut_lo
 
 
 @scalar
-def pathtrace_pixel(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                    lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, j, i,
-                    sum_rad, sum_sq, sum_hit):
+def pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, sum_hit):
     """Add samples ``[s0, s1)`` of pixel (i, j) to the sums, in order (the work of one thread of
     either driver: bitwise the same for any thread count)."""
     H, W = sum_hit.shape
     pixel = j * W + i
     for s in range(s0, s1):
-        r, gg, b, h = trace_path(cam, i, j, W, H, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj,
-                                 block, lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed,
-                                 pixel, s)
+        r, gg, b, h = trace_path(view, medium, lights, paths, i, j, W, H, pixel, s)
         sum_rad[j, i, 0] += r
         sum_rad[j, i, 1] += gg
         sum_rad[j, i, 2] += b
@@ -210,14 +206,11 @@ def pathtrace_pixel(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, 
 
 
 @driver
-def pathtrace_image(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                    lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, row0, row1,
-                    sum_rad, sum_sq, sum_hit):
+def pathtrace_image(view, medium, lights, paths, s0, s1, row0, row1, sum_rad, sum_sq, sum_hit):
     """CPU driver: add samples ``[s0, s1)`` of every pixel in rows ``[row0, row1)`` to the float64
-    sums ``sum_rad`` and ``sum_sq`` (H, W, 3: Σx, Σx²) and ``sum_hit`` (H, W)."""
+    sums ``sum_rad`` and ``sum_sq`` (H, W, 3: Σx, Σx²) and ``sum_hit`` (H, W); the scene in the
+    records of :mod:`.records`."""
     W = sum_hit.shape[1]
     for j in prange(row0, row1):
         for i in range(W):
-            pathtrace_pixel(cam, w2i, lo, hi, mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                            lkind, lvec, lpow, pkind, g, d2min, bg, max_depth, rr_depth, seed, s0, s1, j, i,
-                            sum_rad, sum_sq, sum_hit)
+            pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, sum_hit)

@@ -24,7 +24,7 @@ import math
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
-from .majorant import block_exit, block_of
+from .majorant import block_at, block_span
 from .medium import MODE_GRID, lut_coords, lut_value
 from .phase import phase_eval
 from .preint import albedo_coord, tau_coord, theta_coord
@@ -52,10 +52,12 @@ def index_ray(w2i, ox, oy, oz, dx, dy, dz):
 
 
 @scalar
-def medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux, x, y, z):
-    """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z); (k0, k1, f) locate the table
-    entries for :func:`medium_albedo_emission` (unused in GRID mode). Colour is the emission
-    for a physical TF."""
+def medium_sigma_color(medium, x, y, z):
+    """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z) of ``medium`` (a
+    :class:`.records.Medium`); (k0, k1, f) locate the table entries for
+    :func:`medium_albedo_emission` (unused in GRID mode). Colour is the emission for a physical TF."""
+    mode, field, table, lut_lo, lut_inv, aux = medium.mode, medium.field, medium.table, medium.lut_lo, \
+        medium.lut_inv, medium.aux
     s = trilinear(field, x, y, z)
     if mode == MODE_GRID:
         return (s, trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5),
@@ -66,8 +68,9 @@ def medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux, x, y, z):
 
 
 @scalar
-def medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z):
+def medium_albedo_emission(medium, k0, k1, f, x, y, z):
     """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color`."""
+    mode, table, aux = medium.mode, medium.table, medium.aux
     if mode == MODE_GRID:
         return (trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
                 trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5))
@@ -76,8 +79,10 @@ def medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z):
 
 
 @scalar
-def light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min):
-    """Unoccluded irradiance (rgb) of light ``l`` at world point w and its propagation direction."""
+def light_at(l, lights, wx, wy, wz):
+    """Unoccluded irradiance (rgb) of light ``l`` of ``lights`` (a :class:`.records.Lights`) at
+    world point w and its propagation direction."""
+    lkind, lvec, lpow, d2min = lights.kind, lights.vec, lights.power, lights.d2min
     if lkind[l] == 0:  # point light: I/d², direction from the light to w
         vx = wx - lvec[l, 0]
         vy = wy - lvec[l, 1]
@@ -93,8 +98,11 @@ def light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min):
 
 
 @scalar
-def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min):
-    """Σ_j E_j T_j p(θ_j) (rgb): in-scattered direct light toward the camera (−d)."""
+def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
+    """Σ_j E_j T_j p(θ_j) (rgb): in-scattered direct light toward the camera (−d); T_j from the
+    optical depth on the light grid (a :class:`.records.LightGrid`)."""
+    lkind, pkind, g = lights.kind, lights.pkind, lights.g
+    llo, linv, tau = grid.lo, grid.inv_step, grid.tau
     sr = 0.0
     sg = 0.0
     sb = 0.0
@@ -102,7 +110,7 @@ def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo, linv, 
     ly = (y - llo[1]) * linv[1]
     lz = (z - llo[2]) * linv[2]
     for l in range(lkind.shape[0]):
-        er, eg, eb, ox, oy, oz = light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min)
+        er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
         T = math.exp(-trilinear_c(tau, lx, ly, lz, l))
         p = phase_eval(pkind, g, -(ox * dx + oy * dy + oz * dz))
         w = T * p
@@ -146,14 +154,17 @@ def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
 
 
 @scalar
-def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, linv, phi, radius, tau_b,
-                  abr, abg, abb, D, a_nodes, tau_lo_log, tau_dlog, d2min):
+def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, tau_b, abr, abg, abb):
     """Σ_j E_j Φ_j D(θ_j, r σ̄, ā) (rgb): light scattered at least once inside the ball (docs/ambient_scattering.rst §4).
 
     Φ_j is read at the ball's entry point ``x − s·ω_j`` (s = r, or the distance to a point light
-    when that is shorter) from the front optical depth ``phi``: one component per light (grey,
-    Beer–Lambert mode) or three per light (per channel, tube mode).
+    when that is shorter) from the front optical depth ``grid.phi``: one component per light
+    (grey, Beer–Lambert mode: the optical depth itself) or three per light (per channel, tube mode).
     """
+    lkind, lvec = lights.kind, lights.vec
+    llo, linv, phi = grid.lo, grid.inv_step, grid.phi
+    radius, D, a_nodes, tau_lo_log, tau_dlog = ambient.radius, ambient.D, ambient.a_nodes, ambient.tau_lo_log, \
+        ambient.tau_dlog
     sr = 0.0
     sg = 0.0
     sb = 0.0
@@ -161,7 +172,7 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow, llo, 
     nch = phi.shape[3] // nl
     it, tt = tau_coord(D.shape[1], tau_lo_log, tau_dlog, tau_b)
     for l in range(nl):
-        er, eg, eb, ox, oy, oz = light_at(l, lkind, lvec, lpow, wx, wy, wz, d2min)
+        er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
         s = radius
         if lkind[l] == 0:
             vx = wx - lvec[l, 0]
@@ -218,15 +229,15 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
 
 
 @scalar
-def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_end,
-                mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
-                radius, ball, amb,
-                phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff):
+def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
     """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
     docstring) and the ray's remaining transmittance; the ray stops at world distance ``t_end``
-    (opaque geometry; ``inf`` for none). The background is not added."""
-    mx, my, mz = maj.shape
+    (opaque geometry; ``inf`` for none). The background is not added. The scene comes in the
+    records of :mod:`.records`."""
+    cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
+    step, jitter, seed, ert = march.step, march.jitter, march.seed, march.ert
+    maj, block = medium.maj, medium.block
+    radius, ball, amb = ambient.radius, ambient.ball, ambient.amb
     ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, W, H)
     px, py, pz, qx, qy, qz = index_ray(w2i, ox, oy, oz, dx, dy, dz)
     t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
@@ -248,10 +259,8 @@ def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_
             y = py + tm * qy
             z = pz + tm * qz
             if tm >= t_block:
-                ba = block_of(x, block, mx)
-                bb = block_of(y, block, my)
-                bc = block_of(z, block, mz)
-                tex = block_exit(px, py, pz, qx, qy, qz, ba, bb, bc, block)
+                ba, bb, bc = block_at(x, y, z, maj, block)
+                _, _, _, tex = block_span(px, py, pz, qx, qy, qz, ba, bb, bc, maj, block, tm, t1)
                 if maj[ba, bb, bc] <= 0.0:
                     if tex > te:
                         t = tex  # skip the empty block; realign the segment grid after it
@@ -261,13 +270,13 @@ def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_
                     tnext = te + step
                     continue
                 t_block = tex
-            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, field, table, lut_lo, lut_inv, aux, x, y, z)
+            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(medium, x, y, z)
             if sig > 0.0:
                 sr = cr
                 sg = cg
                 sb = cb
                 if model != EMISSION_ABSORPTION:
-                    ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, table, aux, k0, k1, f, x, y, z)
+                    ar, ag, ab, er, eg, eb = medium_albedo_emission(medium, k0, k1, f, x, y, z)
                     if model == AMBIENT_OCCLUSION:
                         occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
                         sr = cr + ar * occ
@@ -277,18 +286,16 @@ def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_
                         wx = ox + tm * dx
                         wy = oy + tm * dy
                         wz = oz + tm * dz
-                        lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lkind, lvec, lpow, llo,
-                                                  linv, tau, pkind, g, d2min)
+                        lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
                         if model == AMBIENT_SCATTERING:
                             bs, b1, b2, b3 = trilinear4(ball, x, y, z)
-                            mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lkind, lvec, lpow,
-                                                       llo, linv, phi, radius, radius * bs, b1, b2, b3,
-                                                       D, a_nodes, tau_lo_log, tau_dlog, d2min)
+                            mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient,
+                                                       radius * bs, b1, b2, b3)
                             lr += mr
                             lg += mg
                             lb += mb
                         elif model == DIFFUSION:
-                            mr, mg, mb = diffusion_light(diff, x, y, z, dx, dy, dz, gdiff)
+                            mr, mg, mb = diffusion_light(diffusion.field, x, y, z, dx, dy, dz, diffusion.g)
                             lr += mr
                             lg += mg
                             lb += mb
@@ -309,21 +316,14 @@ def march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, t_
 
 
 @scalar
-def raycast_pixel(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, j, i,
-                  mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                  lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
-                  radius, ball, amb,
-                  phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
-                  out_rad, out_alpha):
+def raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha):
     """Render pixel (i, j) into ``out_rad``/``out_alpha`` (the work of one thread of either
-    driver); ``t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
+    driver); ``march.t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
     H, W = out_alpha.shape
+    t_end, bg = march.t_end, march.bg
     per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
     te = t_end[j, i] if per_pixel else t_end[0, 0]
-    r, gg, b, T = march_pixel(model, cam, i, j, W, H, w2i, lo, hi, step, jitter, seed, ert, te,
-                              mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                              lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
-                              radius, ball, amb, phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff)
+    r, gg, b, T = march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, te)
     out_rad[j, i, 0] = r + T * bg[0]
     out_rad[j, i, 1] = gg + T * bg[1]
     out_rad[j, i, 2] = b + T * bg[2]
@@ -331,18 +331,10 @@ def raycast_pixel(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, j
 
 
 @driver
-def raycast_image(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, row0, row1,
-                  mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                  lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
-                  radius, ball, amb,
-                  phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
-                  out_rad, out_alpha):
-    """CPU driver: rows [row0, row1) of the image, one :func:`raycast_pixel` per pixel."""
+def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
+    """CPU driver: rows [row0, row1) of the image, one :func:`raycast_pixel` per pixel; the scene
+    in the records of :mod:`.records`."""
     W = out_alpha.shape[1]
     for j in prange(row0, row1):
         for i in range(W):
-            raycast_pixel(model, cam, w2i, lo, hi, step, jitter, seed, ert, bg, t_end, j, i,
-                          mode, field, table, lut_lo, lut_inv, aux, maj, block,
-                          lkind, lvec, lpow, llo, linv, tau, pkind, g, d2min,
-                          radius, ball, amb, phi, D, a_nodes, tau_lo_log, tau_dlog, diff, gdiff,
-                          out_rad, out_alpha)
+            raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha)

@@ -5,8 +5,8 @@ A ray is given in sample index space (``p + t·q``, ``t`` the world distance, as
 :mod:`.raycast`) together with the interval ``[t0, t1)`` to track over (already clipped to the
 medium's box). The majorant grid ``maj`` (:func:`.majorant.build_majorant`) bounds σt on each
 block of ``block`` samples; the tracker walks the blocks the ray crosses with a 3D DDA
-(Amanatides & Woo 1987) and, inside each block, samples tentative collisions of a homogeneous
-medium with that block's majorant σ̄:
+(Amanatides & Woo 1987; :func:`.majorant.walk_step`) and, inside each block, samples tentative
+collisions of a homogeneous medium with that block's majorant σ̄:
 
 * **delta tracking** (Woodcock 1965): step ``t += −ln(1 − u)/σ̄``; at a tentative collision
   accept it as real with probability σt(x)/σ̄. The accepted distance has density
@@ -42,7 +42,7 @@ import numpy as np
 
 from ._jit import driver, scalar
 from .interp import trilinear
-from .majorant import block_of
+from .majorant import walk_start, walk_step
 from .medium import MODE_GRID, lut_coords, lut_value
 from .rng import GOLDEN, INV53, key, mix64
 
@@ -61,75 +61,33 @@ def draw(k, dim):
 
 
 @scalar
-def sigma_lookup(mode, field, table, lut_lo, lut_inv, x, y, z):
+def sigma_lookup(medium, x, y, z):
     """σt at index-space point (x, y, z), and the table location ``(k0, k1, f)`` that
     :func:`.raycast.medium_albedo_emission` takes (unused in GRID mode)."""
-    s = trilinear(field, x, y, z)
+    mode, table = medium.mode, medium.table
+    s = trilinear(medium.field, x, y, z)
     if mode == MODE_GRID:
         return s, 0, 0, 0.0
-    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
+    k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, table.shape[0])
     return lut_value(table, k0, k1, f, 0), k0, k1, f
 
 
 @scalar
-def axis_exit(p, q, a, block, m):
-    """Ray parameter where ``p + t·q`` leaves slab ``a`` of ``m`` slabs of width ``block``.
-
-    The first slab extends to −∞ and the last to +∞ (lookups clamp there), so the exit on
-    those sides, and along an axis the ray does not move on, is ``inf``.
-    """
-    if q > 0.0:
-        if a >= m - 1:
-            return INF
-        return ((a + 1) * block - p) / q
-    if q < 0.0:
-        if a <= 0:
-            return INF
-        return (a * block - p) / q
-    return INF
-
-
-@scalar
-def block_span(px, py, pz, qx, qy, qz, a, b, c, block, mx, my, mz, t, t1):
-    """Exits of block (a, b, c) along each axis and overall, ``(tx, ty, tz, tb)``; ``tb`` is
-    clipped to ``t1`` and never behind ``t``, whatever the rounding."""
-    tx = axis_exit(px, qx, a, block, mx)
-    ty = axis_exit(py, qy, b, block, my)
-    tz = axis_exit(pz, qz, c, block, mz)
-    return tx, ty, tz, max(min(min(tx, ty), min(tz, t1)), t)
-
-
-@scalar
-def next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz):
-    """The block entered at ``tb``: step every axis whose exit is reached (DDA)."""
-    if tx <= tb:
-        a += 1 if qx > 0.0 else -1
-    if ty <= tb:
-        b += 1 if qy > 0.0 else -1
-    if tz <= tb:
-        c += 1 if qz > 0.0 else -1
-    return a, b, c
-
-
-@scalar
-def delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block, k, dim):
-    """Sample the first real collision on ``[t0, t1)`` by delta tracking.
+def delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim):
+    """Sample the first real collision on ``[t0, t1)`` by delta tracking through ``medium`` (a
+    :class:`.records.Medium`).
 
     Returns ``(hit, t, sigma, k0, k1, f, dim)``: ``hit`` is False when the ray leaves the
     interval (then ``t = t1``); otherwise ``t`` is the collision, ``sigma`` σt there and
     ``(k0, k1, f)`` its table location.
     """
-    mx, my, mz = maj.shape
-    t = t0
-    # Locate the starting block.
-    a = block_of(px + t * qx, block, mx)
-    b = block_of(py + t * qy, block, my)
-    c = block_of(pz + t * qz, block, mz)
-    while t < t1:
-        tx, ty, tz, tb = block_span(px, py, pz, qx, qy, qz, a, b, c, block, mx, my, mz, t, t1)
-        m = maj[a, b, c]
+    maj, block = medium.maj, medium.block
+    walk = walk_start(px, py, pz, qx, qy, qz, t0, maj, block)
+    while walk[3] < t1:
+        walk, t, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
         if m > 0.0:
-            # Tentative collisions of the block's homogeneous majorant medium.
+            # Tentative collisions of the block's homogeneous majorant medium; reaching the
+            # block's exit restarts them in the next block (memoryless).
             inv = 1.0 / m
             while True:
                 u = draw(k, dim)
@@ -137,37 +95,26 @@ def delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
                 t -= math.log1p(-u) * inv
                 if t >= tb:
                     break
-                s, k0, k1, f = sigma_lookup(mode, field, table, lut_lo, lut_inv, px + t * qx, py + t * qy,
-                                            pz + t * qz)
+                s, k0, k1, f = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
                 u = draw(k, dim)
                 dim += 1
                 if u * m < s:
                     return True, t, s, k0, k1, f, dim
-        # Restart at the block's exit (memoryless) and step into the next block.
-        t = tb
-        if tb >= t1:
-            break
-        a, b, c = next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz)
     return False, t1, 0.0, 0, 0, 0.0, dim
 
 
 @scalar
-def ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block, rr_below,
-                k, dim):
-    """Unbiased estimate of ``exp(−∫_{t0}^{t1} σt)`` by ratio tracking.
+def ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, rr_below, k, dim):
+    """Unbiased estimate of ``exp(−∫_{t0}^{t1} σt)`` by ratio tracking through ``medium``.
 
     ``rr_below`` > 0 switches on Russian roulette once the estimate drops below it (0: never).
     Returns ``(T, dim)``.
     """
-    mx, my, mz = maj.shape
+    maj, block = medium.maj, medium.block
     T = 1.0
-    t = t0
-    a = block_of(px + t * qx, block, mx)
-    b = block_of(py + t * qy, block, my)
-    c = block_of(pz + t * qz, block, mz)
-    while t < t1:
-        tx, ty, tz, tb = block_span(px, py, pz, qx, qy, qz, a, b, c, block, mx, my, mz, t, t1)
-        m = maj[a, b, c]
+    walk = walk_start(px, py, pz, qx, qy, qz, t0, maj, block)
+    while walk[3] < t1:
+        walk, t, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
         if m > 0.0:
             inv = 1.0 / m
             while True:
@@ -176,8 +123,7 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
                 t -= math.log1p(-u) * inv
                 if t >= tb:
                     break
-                s, _, _, _ = sigma_lookup(mode, field, table, lut_lo, lut_inv, px + t * qx, py + t * qy,
-                                          pz + t * qz)
+                s, _, _, _ = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
                 # Weight by the null-collision probability; max() guards rounding above σ̄.
                 T *= max(1.0 - s * inv, 0.0)
                 if T <= 0.0:
@@ -189,10 +135,6 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
                     if u * rr_below >= T:
                         return 0.0, dim
                     T = rr_below
-        t = tb
-        if tb >= t1:
-            break
-        a, b, c = next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz)
     return T, dim
 
 
@@ -200,20 +142,16 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_
 
 
 @driver(parallel=False)
-def free_flight_array(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block, seed,
-                      out):
+def free_flight_array(px, py, pz, qx, qy, qz, t0, t1, medium, seed, out):
     """``out[n]`` = delta-tracked collision distance of sample ``n`` (``inf`` when it escapes)."""
     for n in range(out.shape[0]):
-        hit, t, _, _, _, _, _ = delta_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv,
-                                            maj, block, key(seed, 0, n), 0)
+        hit, t, _, _, _, _, _ = delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, key(seed, 0, n), 0)
         out[n] = t if hit else INF
 
 
 @driver(parallel=False)
-def transmittance_array(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block,
-                        rr_below, seed, out):
+def transmittance_array(px, py, pz, qx, qy, qz, t0, t1, medium, rr_below, seed, out):
     """``out[n]`` = ratio-tracking estimate ``n`` of the transmittance over ``[t0, t1)``."""
     for n in range(out.shape[0]):
-        T, _ = ratio_track(px, py, pz, qx, qy, qz, t0, t1, mode, field, table, lut_lo, lut_inv, maj, block,
-                           rr_below, key(seed, 0, n), 0)
+        T, _ = ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, rr_below, key(seed, 0, n), 0)
         out[n] = T

@@ -22,6 +22,7 @@ from ..inputs.camera import as_camera
 from ..inputs.grid import Volume, volume_from_image
 from ..inputs.lights import as_lights, pack_lights
 from ..inputs.transfer import as_transfer_function
+from .._kernels import records as K
 from ..inputs.validation import check_choice, check_int, check_real, check_rgb
 from ..stages.reference import RR_DEPTH
 from .cache import SceneCache
@@ -45,10 +46,6 @@ from .result import RenderResult
 
 #: The ray-cast models' kernel ids (from the model table).
 MODEL_IDS = {m.name: m.kernel_id for m in MODEL_TABLE if m.kernel_id is not None}
-_DUMMY4 = np.zeros((1, 1, 1, 1), np.float32)
-_DUMMY3 = np.zeros((1, 1, 1), np.float32)
-_DUMMY1 = np.zeros(1, np.float64)
-_DUMMY12 = np.zeros((1, 1, 1, 12), np.float32)
 
 
 def _tiles(n, count):
@@ -356,7 +353,7 @@ class Renderer:
             total = part if total is None else total + part
         if len(keys) > 1:
             self.cache[("diffusion_sum", keys)] = total
-        return total if total is not None else _DUMMY12
+        return total if total is not None else K.NONE12
 
     def choose_model(self, request) -> tuple:
         """The model a request renders and the options the choice adds: ``auto``'s rules (listed in
@@ -554,19 +551,18 @@ class Renderer:
         if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
             lights = ()
         taus = [self.optical_depth(lt, grid, backend) for lt in lights]
-        ball = self.ball_grid(radius) if MODEL_SPECS[model].ball else _DUMMY4
-        tab_args = (_DUMMY4, _DUMMY3, _DUMMY1, 0.0, 1.0)
-        phi = _DUMMY4
+        ball = self.ball_grid(radius) if MODEL_SPECS[model].ball else K.NONE4
+        D, a_nodes, lo_log, dlog = K.NONE3, K.NONE1, 0.0, 1.0
+        phi = K.NONE4
         if model == "ambient_scattering" and lights:
             tab = self.table(ph, radius, quality=req.table_quality, progress_bar=progress_bar)
             D, F_diff, a_nodes, lo_log, dlog = tab.lookup_args()
-            tab_args = (_DUMMY4, D, a_nodes, lo_log, dlog)
             if req.propagation == "tube":
                 phi = np.concatenate([self.front_depth(lt, grid, radius, ph, req.table_quality) for lt in lights],
                                      axis=-1)
             else:
                 phi = None  # the τ grids themselves, read at the ball's entry point
-        diff = _DUMMY12
+        diff = K.NONE12
         if model == "diffusion" and lights:
             diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
                                   progress_bar=progress_bar, backend=backend)
@@ -574,20 +570,21 @@ class Renderer:
                                                     req.ambient_radiance, req.t_end, req.jitter, req.asked)
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
-            kind, vec, power = pack_lights(lights)
-            tau = np.stack(taus, axis=-1) if taus else _DUMMY4
-            tab_args = (tau if phi is None else phi,) + tab_args[1:]
+            tau = np.stack(taus, axis=-1) if taus else K.NONE4
             lg = grid if grid is not None else _NO_GRID
-            o = self.optics
-            g = self.geometry
-            args = (cam.params(size), g.world_to_index, g.box_lo, g.box_hi, step, bool(jitter), seed, ert, bg, t_end)
-            medium = (o.mode, o.field, o.table, o.lut_lo, o.lut_inv, o.aux, self.majorant(), MAJORANT_BLOCK)
-            light_args = (kind, vec, power, lg.lo, lg.inv_step, tau, ph.kind, float(ph.g), (0.25 * step) ** 2)
-            tail = medium + light_args + (radius, ball, amb) + tab_args + (diff, float(ph.mean_cosine))
+            # the kernel's records (pv_ambient._kernels.records), after the model id
+            args = (MODEL_IDS[model],
+                    K.view_of(cam, size, self.geometry),
+                    K.March(step, bool(jitter), seed, ert, bg, t_end),
+                    K.medium_of(self.optics, self.majorant(), MAJORANT_BLOCK),
+                    K.lights_of(pack_lights(lights), ph, (0.25 * step) ** 2),
+                    K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi),
+                    K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog),
+                    K.Diffusion(diff, float(ph.mean_cosine)))
             if backend == "cuda":
-                backend = self._run_cuda((MODEL_IDS[model],) + args, tail, rad, alpha, asked)
+                backend = self._run_cuda(args, rad, alpha, asked)
             if backend == "cpu":
-                self._run_tiles((MODEL_IDS[model],) + args, tail, rad, alpha, progress_bar, model)
+                self._run_tiles(args, rad, alpha, progress_bar, model)
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": req.model, "quality": req.quality, "step": step,
@@ -712,22 +709,21 @@ class Renderer:
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
 
-    def _run_cuda(self, head, tail, rad, alpha, asked):
+    def _run_cuda(self, args, rad, alpha, asked):
         """The ray cast on the GPU; returns the backend that ran ("cpu" after a fallback)."""
         from .. import backend as bk
 
-        arrays = [a for a in head + tail if isinstance(a, np.ndarray)]
         try:
-            bk.check_fits(self.device_cache, arrays, rad.nbytes + alpha.nbytes)
+            bk.check_fits(self.device_cache, K.arrays(args), rad.nbytes + alpha.nbytes)
         except bk.DeviceMemoryError as exc:
             if asked == "cuda":
                 raise
             warnings.warn(f"{exc}; rendering on the CPU instead", RuntimeWarning, stacklevel=4)
             return "cpu"
-        bk.raycast(self.device_cache, (head, tail), 0, rad.shape[0], rad, alpha)
+        bk.raycast(self.device_cache, args, 0, rad.shape[0], rad, alpha)
         return "cuda"
 
-    def _run_tiles(self, head, tail, rad, alpha, progress_bar, name):
+    def _run_tiles(self, args, rad, alpha, progress_bar, name):
         from .._kernels.raycast import raycast_image
 
         tiles = _tiles(rad.shape[0], 16 if progress_bar else 4)  # Ctrl-C is seen between tiles
@@ -738,7 +734,7 @@ class Renderer:
             bar = tqdm(total=len(tiles), desc=name, unit="tile")
         try:
             for r0, r1 in tiles:
-                raycast_image(*head, r0, r1, *tail, rad, alpha)
+                raycast_image(*args, r0, r1, rad, alpha)
                 if bar is not None:
                     bar.update(1)
         finally:

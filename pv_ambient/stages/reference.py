@@ -127,6 +127,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     -------
     Traced
     """
+    from .._kernels import records as K
     from .._kernels.pathtrace import pathtrace_image
     from ..inputs.phase import as_phase
 
@@ -159,17 +160,14 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
         sum_sq[:] = bg * bg * spp
         n = spp
     else:
-        o = optics
-        kind, vec, power = pack_lights(lights)
-        args = (cam.params(size), geom.world_to_index, geom.box_lo, geom.box_hi, o.mode, o.field, o.table,
-                o.lut_lo, o.lut_inv, o.aux, majorant, block, kind, vec, power, ph.kind, float(ph.g),
-                light_clamp * light_clamp, bg, depth, rr_depth, seed)
+        args = (K.view_of(cam, size, geom), K.medium_of(optics, majorant, block),
+                K.lights_of(pack_lights(lights), ph, light_clamp * light_clamp), K.Paths(bg, depth, rr_depth, seed))
         bar = None
         sums = None
         if backend == "cuda":
             from .. import backend as bk
 
-            bk.check_fits(device_cache, [a for a in args if isinstance(a, np.ndarray)],
+            bk.check_fits(device_cache, K.arrays(args),
                           sum_rad.nbytes + sum_sq.nbytes + sum_hit.nbytes)
             sums = bk.PathSums(h, w)
         if progress_bar:
