@@ -246,3 +246,50 @@ def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out)
                 k += s
     out[:] = d_out.copy_to_host()
     cache.put(out, d_out)
+
+
+def tiles(n, count):
+    """``count`` (at most ``n``) row ranges [r0, r1) covering ``n`` rows."""
+    edges = np.linspace(0, n, min(count, n) + 1).astype(int)
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def run_raycast(args, rad, alpha, *, backend, asked, device_cache=None, progress_bar=False, name="") -> str:
+    """The ray cast of a whole image on ``backend`` (``"cpu"`` or ``"cuda"``), filling ``rad`` and
+    ``alpha``; returns the backend that ran — ``"cpu"`` after a fallback, when ``asked`` was
+    ``"auto"`` and the scene does not fit in the GPU's free memory (with a warning).
+
+    ``args`` are :func:`pv_ambient._kernels.raycast.raycast_image`'s arguments before the rows and
+    outputs (the model id and the records). On the CPU the image is cast in row tiles, so Ctrl-C is
+    seen between tiles and ``progress_bar`` counts them.
+    """
+    if backend == "cuda":
+        from ._kernels.records import arrays
+
+        try:
+            check_fits(device_cache, arrays(args), rad.nbytes + alpha.nbytes)
+        except DeviceMemoryError as exc:
+            if asked == "cuda":
+                raise
+            warnings.warn(f"{exc}; rendering on the CPU instead", RuntimeWarning, stacklevel=5)
+            backend = "cpu"
+        else:
+            raycast(device_cache, args, 0, rad.shape[0], rad, alpha)
+            return "cuda"
+    from ._kernels.raycast import raycast_image
+
+    parts = tiles(rad.shape[0], 16 if progress_bar else 4)
+    bar = None
+    if progress_bar:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(parts), desc=name, unit="tile")
+    try:
+        for r0, r1 in parts:
+            raycast_image(*args, r0, r1, rad, alpha)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    return "cpu"

@@ -12,12 +12,10 @@ from __future__ import annotations
 
 import copy
 import time
-import warnings
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..backend import BACKENDS, resolve_backend
+from ..backend import BACKENDS, resolve_backend, run_raycast
 from ..inputs.camera import as_camera
 from ..inputs.grid import Volume, volume_from_image
 from ..inputs.lights import as_lights, pack_lights
@@ -39,29 +37,17 @@ from .presets import (
     PROPAGATION_MODES,
     QUALITIES,
     QUALITY_PRESETS,
-    TAU_OPAQUE,
     step_for,
 )
+from .request import RenderRequest, check_ray_end
 from .result import RenderResult
+from .stages import NO_GRID, SceneStages
 
 #: The ray-cast models' kernel ids (from the model table).
 MODEL_IDS = {m.name: m.kernel_id for m in MODEL_TABLE if m.kernel_id is not None}
 
 
-def _tiles(n, count):
-    edges = np.linspace(0, n, min(count, n) + 1).astype(int)
-    return list(zip(edges[:-1], edges[1:]))
-
-
-class _NoGrid:
-    lo = np.zeros(3)
-    inv_step = np.zeros(3)
-
-
-_NO_GRID = _NoGrid()
-
-
-class Renderer:
+class Renderer(SceneStages):
     """A volume, its transfer function and lights, with caches that survive camera moves.
 
     Parameters
@@ -146,214 +132,6 @@ class Renderer:
     def set_lights(self, lights):
         """Replace the lights; cached volumes of lights that stay are kept (a relight)."""
         self.lights = as_lights(lights)
-
-    def majorant(self, block=MAJORANT_BLOCK):
-        """Upper bound of σt over each block of (``block``)³ samples (cached)."""
-        key = ("majorant", block)
-        if key not in self.cache:
-            from .._kernels.majorant import build_majorant
-
-            o = self.optics
-            shape = tuple(max(1, -(-(n - 1) // block)) for n in o.field.shape)
-            maj = np.zeros(shape, np.float32)
-            build_majorant(o.mode, o.field, o.table, o.lut_lo, o.lut_inv, block, maj)
-            self.cache[key] = maj
-        return self.cache[key]
-
-    # -- cached stages ---------------------------------------------------------------------
-    def light_grid(self, light_resolution=None):
-        """The light grid for a resolution factor (docs/ambient_scattering.rst §3 default when None)."""
-        from ..stages.propagation import default_factor, make_light_grid
-
-        f = default_factor(self.optics, self.geometry) if light_resolution is None else light_resolution
-        key = ("light_grid", float(f))
-        if key not in self.cache:
-            self.cache[key] = make_light_grid(self.geometry, f)
-        return self.cache[key]
-
-    def sigma_on_light_grid(self, grid):
-        from ..stages.propagation import sigma_on_grid
-
-        key = ("sigma_l", grid.key())
-        if key not in self.cache:
-            self.cache[key] = sigma_on_grid(self.optics, grid)
-        return self.cache[key]
-
-    def optical_depth(self, light, grid, backend="cpu"):
-        """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light),
-        swept on ``backend`` (``"cpu"`` or ``"cuda"``) when not cached."""
-        from ..stages.propagation import optical_depth
-
-        key = ("tau", light, grid.key())
-        if key not in self.cache:
-            t = time.perf_counter()
-            dev = self.device_cache if backend == "cuda" else None
-            self.cache[key] = optical_depth(self.sigma_on_light_grid(grid), grid, self.geometry, light,
-                                             device_cache=dev)
-            self.timings[f"light volume {light}"] = time.perf_counter() - t
-        return self.cache[key]
-
-    def _scattering_nodes(self, grid):
-        """Light-grid node indices (nearest node) of the data samples that scatter (σt·albedo > 0)."""
-        key = ("scattering_nodes", grid.key())
-        if key not in self.cache:
-            sig = self.optics.sigma_grid()
-            alb = self.optics.albedo_grid()
-            mask = (sig > 0) & (alb.max(axis=-1) > 0)
-            idx = np.nonzero(mask)
-            nodes = tuple(np.clip(np.rint((i - grid.lo[a]) * grid.inv_step[a]).astype(np.intp), 0, grid.shape[a] - 1)
-                          for a, i in enumerate(idx))
-            self.cache[key] = nodes
-        return self.cache[key]
-
-    def active_lights(self, grid, backend="cpu"):
-        """Lights that reach the scattering medium: non-zero power, and optical depth below
-        ``TAU_OPAQUE`` at some sample that scatters (σt·albedo > 0)."""
-        out = []
-        nodes = self._scattering_nodes(grid)
-        if nodes[0].size == 0:
-            return ()
-        for lt in self.lights:
-            if max(lt.power) <= 0.0:
-                continue
-            if float(np.min(self.optical_depth(lt, grid, backend)[nodes])) > TAU_OPAQUE:
-                continue
-            out.append(lt)
-        return tuple(out)
-
-    def ball_grid(self, radius):
-        """σ̄ (mean extinction over the ball of world radius ``radius``) and the ball's mean albedo
-        ā = mean(σs)/σ̄ per channel, at every data sample: float32 (nx, ny, nz, 4)."""
-        key = ("ball", float(radius))
-        if key not in self.cache:
-            from ..stages.sat import mean_extinction
-
-            sig = self.optics.sigma_grid()
-            alb = self.optics.albedo_grid()
-            sp = self.geometry.spacing
-            out = np.zeros(sig.shape + (4,), np.float32)
-            out[..., 0] = mean_extinction(sig, sp, radius)
-            for c in range(3):
-                if c > 0 and np.array_equal(alb[..., c], alb[..., c - 1]):
-                    out[..., 1 + c] = out[..., c]  # grey albedo: one box mean serves every channel
-                    continue
-                ms = mean_extinction(np.ascontiguousarray(sig * alb[..., c]), sp, radius)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    out[..., 1 + c] = np.where(out[..., 0] > 0, np.clip(ms / out[..., 0], 0.0, 1.0), 0.0)
-            self.cache[key] = out
-        return self.cache[key]
-
-    def albedo_range(self, radius):
-        """(min, max) of the ball-mean albedo ā over the medium (where σ̄ > 0), all channels."""
-        ball = self.ball_grid(radius)
-        inside = ball[..., 0] > 0
-        if not inside.any():
-            return 0.0, 0.0
-        a = ball[..., 1:4][inside]
-        return float(a.min()), float(a.max())
-
-    def _table_key(self, phase, radius, quality):
-        from ..stages.preintegration import albedo_nodes_for
-
-        lo, hi = self.albedo_range(radius)
-        # keyed on the albedo nodes the range needs: nearby ranges share one slice
-        return ("table", phase.kind, float(phase.g), tuple(albedo_nodes_for(lo, hi).tolist()), quality)
-
-    def table(self, phase, radius, quality="balanced", progress_bar=False):
-        """The preintegrated D/F slice for ``phase`` and the albedo range the scene needs (cached)."""
-        from ..stages.preintegration import get_table
-
-        key = self._table_key(phase, radius, quality)
-        if key not in self.cache:
-            lo, hi = self.albedo_range(radius)
-            t = time.perf_counter()
-            self.cache[key] = get_table(phase, albedo_range=(lo, hi), quality=quality, progress_bar=progress_bar)
-            self.timings["table"] = time.perf_counter() - t
-        return self.cache[key]
-
-    def front_depth(self, light, grid, radius, phase, quality="balanced"):
-        """Tube-mode front optical depth per channel, (m0, m1, m2, 3) float32 (cached per light, r, table)."""
-        from ..stages.propagation import optical_depth, tube_extinction
-
-        key = ("front", light, grid.key(), float(radius), self._table_key(phase, radius, quality))
-        if key not in self.cache:
-            table = self.table(phase, radius, quality)
-            t = time.perf_counter()
-            rho = tube_extinction(self._ball_on_light_grid(radius, grid), grid, radius, table)
-            out = np.empty_like(rho)
-            for c in range(3):
-                out[..., c] = optical_depth(np.ascontiguousarray(rho[..., c]), grid, self.geometry, light)
-            self.cache[key] = out
-            self.timings[f"front volume {light}"] = time.perf_counter() - t
-        return self.cache[key]
-
-    def _ball_on_light_grid(self, radius, grid):
-        """The ball grid with σ̄ averaged over the part of the ball inside the grid.
-
-        The tube march (docs/ambient_scattering.rst §3) starts where the light enters the medium, so its balls never
-        straddle the entry face; averaging over the inside part gives the continuous march the
-        same property (homogeneous medium, albedo 0: Φ equals Beer–Lambert exactly).
-        """
-        key = ("ball_inside", float(radius))
-        if key not in self.cache:
-            ball = self.ball_grid(radius).copy()
-            if radius > 0:
-                half = 0.5 * radius * (4.0 * np.pi / 3.0) ** (1.0 / 3.0) / self.geometry.spacing
-                frac = np.ones(ball.shape[:3])
-                for ax, n in enumerate(ball.shape[:3]):
-                    i = np.arange(n, dtype=np.float64)
-                    inside = np.clip(np.minimum(i + half[ax], n - 0.5) - np.maximum(i - half[ax], -0.5), 0.0, None)
-                    shape = [1, 1, 1]
-                    shape[ax] = n
-                    frac = frac * (inside / (2.0 * half[ax])).reshape(shape)
-                ball[..., 0] = (ball[..., 0] / np.maximum(frac, 1e-12)).astype(np.float32)
-            self.cache[key] = ball
-        return self.cache[key]
-
-    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu"):
-        """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (docs/diffusion.rst),
-        (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
-        relight re-solves only the light that changed (warm-started from its previous solution).
-
-        One solve of the summed sources would cost less for the first frame (identical for plain
-        diffusion; flux-limited diffusion is not linear, so it differs slightly), but every relight
-        would then re-solve all lights (figures: ``benchmarks/results/diffusion_notes.md``).
-
-        σt and albedo are checked and converted once per scene (a ``DiffusionMedium`` cached
-        under ``("diffusion_medium",)``); each light's optical depth comes from
-        :meth:`optical_depth` on the light grid of ``grid``'s factor."""
-        from ..stages.diffusion import DiffusionMedium, solve_for_light
-
-        g = float(phase.mean_cosine)
-        total = None
-        keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited)) for lt in lights)
-        if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
-            return self.cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
-        for lt in lights:
-            key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
-            if key not in self.cache:
-                t = time.perf_counter()
-                medium = self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
-                    self.optics.sigma_grid(), self.optics.albedo_grid()))
-                lgrid = self.light_grid(grid.factor)
-                sol = solve_for_light(lt, g, medium=medium, geometry=self.geometry,
-                                      tau=self.optical_depth(lt, lgrid, backend), light_grid=lgrid,
-                                      flux_limited=bool(flux_limited), progress_bar=progress_bar)
-                packed = sol.packed()
-                if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
-                                                                                       packed[..., 8:12]):
-                    packed = np.ascontiguousarray(packed[..., 0:4])  # grey: one channel read per sample
-                self.cache[key] = packed
-                self.timings[f"diffusion {lt}"] = time.perf_counter() - t
-                self._diffusion_info = {"iterations": int(sol.iterations), "residual": float(sol.residual),
-                                        "converged": bool(sol.converged)}
-            part = self.cache[key]
-            if total is not None and total.shape != part.shape:  # grey and coloured lights: all 12
-                total, part = (np.tile(a, (1, 1, 1, 3)) if a.shape[3] == 4 else a for a in (total, part))
-            total = part if total is None else total + part
-        if len(keys) > 1:
-            self.cache[("diffusion_sum", keys)] = total
-        return total if total is not None else K.NONE12
 
     def choose_model(self, request) -> tuple:
         """The model a request renders and the options the choice adds: ``auto``'s rules (listed in
@@ -527,7 +305,7 @@ class Renderer:
             seed=check_int(seed, "seed", lo=0), background=check_rgb(background, "background"),
             early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
             ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
-            radius=self._radius(radius, model), t_end=_ray_end(ray_end, size), light_resolution=light_resolution,
+            radius=self._radius(radius, model), t_end=check_ray_end(ray_end, size), light_resolution=light_resolution,
             table_quality=table_quality, propagation=propagation, progress_bar=bool(progress_bar), asked=asked,
             backend=resolve_backend(asked), time_budget=budget, options=dict(model_options), explicit=explicit)
 
@@ -571,7 +349,7 @@ class Renderer:
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
             tau = np.stack(taus, axis=-1) if taus else K.NONE4
-            lg = grid if grid is not None else _NO_GRID
+            lg = grid if grid is not None else NO_GRID
             # the kernel's records (pv_ambient._kernels.records), after the model id
             args = (MODEL_IDS[model],
                     K.view_of(cam, size, self.geometry),
@@ -581,10 +359,9 @@ class Renderer:
                     K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi),
                     K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog),
                     K.Diffusion(diff, float(ph.mean_cosine)))
-            if backend == "cuda":
-                backend = self._run_cuda(args, rad, alpha, asked)
-            if backend == "cpu":
-                self._run_tiles(args, rad, alpha, progress_bar, model)
+            backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
+                                  device_cache=self.device_cache if backend == "cuda" else None,
+                                  progress_bar=progress_bar, name=model)
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": req.model, "quality": req.quality, "step": step,
@@ -708,85 +485,6 @@ class Renderer:
                     pass
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
-
-    def _run_cuda(self, args, rad, alpha, asked):
-        """The ray cast on the GPU; returns the backend that ran ("cpu" after a fallback)."""
-        from .. import backend as bk
-
-        try:
-            bk.check_fits(self.device_cache, K.arrays(args), rad.nbytes + alpha.nbytes)
-        except bk.DeviceMemoryError as exc:
-            if asked == "cuda":
-                raise
-            warnings.warn(f"{exc}; rendering on the CPU instead", RuntimeWarning, stacklevel=4)
-            return "cpu"
-        bk.raycast(self.device_cache, args, 0, rad.shape[0], rad, alpha)
-        return "cuda"
-
-    def _run_tiles(self, args, rad, alpha, progress_bar, name):
-        from .._kernels.raycast import raycast_image
-
-        tiles = _tiles(rad.shape[0], 16 if progress_bar else 4)  # Ctrl-C is seen between tiles
-        bar = None
-        if progress_bar:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=len(tiles), desc=name, unit="tile")
-        try:
-            for r0, r1 in tiles:
-                raycast_image(*args, r0, r1, rad, alpha)
-                if bar is not None:
-                    bar.update(1)
-        finally:
-            if bar is not None:
-                bar.close()
-
-
-@dataclass(frozen=True)
-class RenderRequest:
-    """One render's inputs, checked (:meth:`Renderer.request`): what the stages and the kernels get.
-
-    Every field is a validated value (a :class:`~pv_ambient.Camera`, a ``(width, height)`` tuple,
-    floats, a phase function, arrays); ``options`` holds the model options (``MODEL_OPTIONS``)
-    with the preset's ``samples_per_pixel`` filled in, ``explicit`` the option names the caller gave.
-    """
-
-    camera: object
-    window_size: tuple
-    model: str
-    quality: str
-    step: float
-    jitter: bool
-    seed: int
-    background: np.ndarray
-    early_termination: float
-    ambient_radiance: float
-    phase: object
-    radius: float
-    t_end: np.ndarray
-    light_resolution: float | None
-    table_quality: str
-    propagation: str
-    progress_bar: bool
-    asked: str
-    backend: str
-    time_budget: float | None
-    options: dict = field(default_factory=dict)
-    explicit: frozenset = frozenset()
-
-
-def _ray_end(ray_end, size):
-    """The ``t_end`` array of the ray-cast driver: (1, 1) inf, or the validated (H, W) ``ray_end``."""
-    if ray_end is None:
-        return np.full((1, 1), np.inf)
-    w, h = size
-    arr = np.asarray(ray_end, dtype=np.float64)
-    if arr.shape != (h, w):
-        raise ValueError(f"ray_end must have shape (height, width) = {(h, w)}, got {arr.shape}")
-    if np.isnan(arr).any() or (arr < 0).any():
-        raise ValueError("ray_end must hold distances >= 0 (inf where no geometry), found NaN or negative values")
-    return np.ascontiguousarray(arr)
-
 
 def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=(), model="emission_absorption",
            scalars=None, component=None, preference="point", nan_policy="raise", **options) -> RenderResult:
