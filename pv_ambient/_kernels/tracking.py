@@ -73,6 +73,14 @@ def sigma_lookup(medium, x, y, z):
 
 
 @scalar
+def tentative(t, inv_majorant, k, dim):
+    """The next tentative collision of a homogeneous majorant medium (σ̄ = 1/``inv_majorant``)
+    after ``t``: an exponential free flight drawn with random dimension ``dim``. Returns ``(t, dim)``."""
+    u = draw(k, dim)
+    return t - math.log1p(-u) * inv_majorant, dim + 1
+
+
+@scalar
 def delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim):
     """Sample the first real collision on ``[t0, t1)`` by delta tracking through ``medium`` (a
     :class:`.records.Medium`).
@@ -90,9 +98,7 @@ def delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim):
             # block's exit restarts them in the next block (memoryless).
             inv = 1.0 / m
             while True:
-                u = draw(k, dim)
-                dim += 1
-                t -= math.log1p(-u) * inv
+                t, dim = tentative(t, inv, k, dim)
                 if t >= tb:
                     break
                 s, k0, k1, f = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
@@ -118,9 +124,7 @@ def ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, rr_below, k, dim):
         if m > 0.0:
             inv = 1.0 / m
             while True:
-                u = draw(k, dim)
-                dim += 1
-                t -= math.log1p(-u) * inv
+                t, dim = tentative(t, inv, k, dim)
                 if t >= tb:
                     break
                 s, _, _, _ = sigma_lookup(medium, px + t * qx, py + t * qy, pz + t * qz)
