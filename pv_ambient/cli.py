@@ -16,6 +16,10 @@ import sys
 import time
 from pathlib import Path
 
+from .backend import BACKENDS
+from .rendering.presets import ALL_MODELS
+from .rendering.result import TONEMAPS
+
 
 def _cmd_render(args) -> int:
     from .scene import load_scene, render_scene
@@ -116,12 +120,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene file (JSON, format documented in pv_ambient.scene)")
     r.add_argument("-o", "--output", required=True, help="output image (.png; .npy/.npz keep linear radiance)")
     r.add_argument("--radiance", help="also write linear float32 radiance (H, W, 3) to this .npy file")
-    r.add_argument("--model", help="override the scene's model")
+    r.add_argument("--model", choices=ALL_MODELS, help="override the scene's model")
     r.add_argument("--exposure", type=float, help="PNG exposure in stops")
-    r.add_argument("--tonemap", choices=("clip", "reinhard", "aces"), help="PNG tone map")
+    r.add_argument("--tonemap", choices=TONEMAPS, help="PNG tone map")
     r.add_argument("--srgb", action="store_true", help="sRGB-encode the PNG")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
-    r.add_argument("--backend", choices=("auto", "cpu", "cuda"),
+    r.add_argument("--backend", choices=BACKENDS,
                    help="where the kernels run (overrides the scene's 'backend'; default auto)")
     r.set_defaults(func=_cmd_render)
     d = sub.add_parser("demo", help="render the embedded supernova dataset (EA and ambient scattering) "

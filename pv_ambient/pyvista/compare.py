@@ -12,19 +12,13 @@ import pyvista as pv
 from ..inputs.camera import as_camera
 from ..inputs.transfer import as_transfer_function
 from ..inputs.validation import check_int, check_window_size
+from ..rendering.presets import MODEL_TABLE
 from ..rendering.renderer import Renderer
 from .plane import add_result_plane
 from .vtk_bridge import add_vtk_volume
 
 
-MODEL_TITLES = {
-    "emission_absorption": "pv_ambient: emission-absorption",
-    "ambient_occlusion": "pv_ambient: ambient occlusion",
-    "single_scattering": "pv_ambient: single scattering",
-    "ambient_scattering": "pv_ambient: ambient scattering",
-    "diffusion": "pv_ambient: diffusion",
-    "path_traced": "pv_ambient: path traced",
-}
+MODEL_TITLES = {m.name: f"pv_ambient: {m.title}" for m in MODEL_TABLE if m.name != "auto"}
 
 
 def show_panels(results, labels, path, *, display=None, font_size=12, off_screen=True):

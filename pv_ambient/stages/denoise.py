@@ -7,32 +7,19 @@ un-denoised standard-error image and says in its metadata that it was denoised.
 Two steps around the filter, both scene-independent:
 
 * **Mean preservation** (default on). The noisy image's mean is an unbiased estimate of the
-  converged image's mean; OIDN's is not: on the three scenes of ``benchmarks/trade.py``
-  (``--size 80 --n 64``, 4 spp, 32 seeds) its output mean was off its own input's by −1.3 %
-  (supernova), +2.0 % (cloud) and −1.0 % (CT phantom) on average. :func:`denoise_radiance`
-  therefore rescales each channel of the denoised image so that its sum equals the noisy
-  image's (exact by construction). Over those seeds the mean bias (denoised vs converged
-  reference) went from −1.6 / +2.2 / −1.0 % to +0.3 / +0.2 / −0.0 %, with 4×4-block relative
-  RMSE and SSIM unchanged (block 0.354 → 0.355, 0.266 → 0.257, 0.133 → 0.132). The image mean
-  then keeps the Monte Carlo spread of the input: at 4 spp its standard deviation over seeds is
-  2.0 / 2.8 / 1.0 % of the mean, which no post-process can remove (a single 4-spp frame of the
-  cloud, e.g. the benchmark's seed 3, can be 5.8 % dark before any denoising). Coarser local
-  corrections (Gaussian-smoothed ratio at σ = 8 or 16 px, 20-px tiles) measured no better than
-  the global one, and tiles leave seams. Changing OIDN's HDR ``inputScale`` (0.045/m … 4/m for
-  m the mean luminance of the covered pixels, against its auto-exposure) moved the mean by
-  ±2 % scene-dependently and was rejected.
+  converged image's mean; OIDN's output is not (off its own input's by 1–2 % on the trade
+  scenes). :func:`denoise_radiance` therefore rescales each channel of the denoised image so that
+  its sum equals the noisy image's (exact by construction); the image mean then keeps only the
+  Monte Carlo spread of the input, which no post-process can remove.
 * **Albedo guide** (optional ``albedo=``). A volume has no surface albedo, but the expected
   scattering albedo at a camera ray's first collision, ``∫ T(t) σt(t) a(t) dt`` (premultiplied
   by coverage, in [0, 1], noise-free), plays its role: it is the emission–absorption image with
-  the colour replaced by the albedo, :meth:`pv_ambient.Renderer.albedo_guide` (one ray cast). Measured as above with
-  mean preservation: 4×4-block relative RMSE 0.355 → 0.331 (supernova), 0.257 → 0.186 (cloud),
-  0.132 → 0.096 (CT phantom); SSIM 0.972 → 0.979, 0.948 → 0.978, 0.863 → 0.967; per-pixel
-  relative RMSE 0.53 → 0.48, 0.32 → 0.22, 0.26 → 0.15 (un-denoised: 4 spp block 0.49 / 0.55 /
-  0.23, 16 spp SSIM 0.89 / 0.78 / 0.77). The guide costs one emission–absorption frame. Without
-  premultiplication (albedo / coverage) it measured slightly worse; a coverage-only guide
-  (``1 − T``) did not help. No normal guide is used (a volume's gradient normal needs a ray
-  cast of its own; not measured). The guide is used where the caller passes it:
-  ``denoise_radiance(res.radiance, albedo=renderer.albedo_guide(camera, window_size))``.
+  the colour replaced by the albedo, :meth:`pv_ambient.Renderer.albedo_guide` (one ray cast,
+  passed as ``denoise_radiance(res.radiance, albedo=renderer.albedo_guide(camera, window_size))``).
+
+The measurements behind both choices (bias, block error and SSIM per scene, and the alternatives
+that were tried and rejected) are in ``benchmarks/results/denoise_notes.md``; docs/path_tracer.rst
+describes the method.
 
 >>> import numpy as np
 >>> from pv_ambient.stages.denoise import available, preserve_mean
