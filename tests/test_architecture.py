@@ -11,7 +11,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 import pv_ambient as pa
 from pv_ambient import datasets

@@ -14,6 +14,7 @@ import pyvista as pv
 
 from ..inputs.camera import Camera
 from ..inputs.validation import check_int, check_window_size
+from ..rendering.presets import DEFAULT_SPP
 from ..rendering.renderer import Renderer
 from ..rendering.result import RenderResult
 from ..stages.reference import Accumulator
@@ -224,7 +225,7 @@ class AmbientVolume:
         acc = self._accumulator
         k = 0 if acc is None else acc.passes
         done = 0 if acc is None else acc.samples
-        total = int(self.options.get("samples_per_pixel", 64))
+        total = int(self.options.get("samples_per_pixel", DEFAULT_SPP))
         n = max(2, min(self.interactive_samples, total - done))
         res = self._render_volume(cam, size, samples_per_pixel=n, seed=int(self.options.get("seed", 0)) + k,
                                   target_error=None)
@@ -252,7 +253,7 @@ class AmbientVolume:
         if self.model != "path_traced" or acc is None:
             return False
         target = self.options.get("target_error")
-        if acc.samples >= int(self.options.get("samples_per_pixel", 64)):
+        if acc.samples >= int(self.options.get("samples_per_pixel", DEFAULT_SPP)):
             return False
         if target is not None and acc.passes > 1 and self.result.metadata.get("relative_error", np.inf) <= target:
             return False
