@@ -349,7 +349,8 @@ def check_count(n=48, size=(48, 40)):
             lines.append(f"    azimuth {deg:5.1f}°: numba {int(c_numba.sum())} samples, NumPy {int(c_numpy.sum())}"
                          f" ({int((c_numba != c_numpy).sum())} pixels differ, max |diff|"
                          f" {int(np.abs(c_numba - c_numpy).max())}); {int((T_numba < ERT).sum())} of {T_numba.size}"
-                         f" rays terminated early; max |alpha − (1 − T)| {np.abs(alpha - (1.0 - T_numba)).max():.1e}")
+                         f" rays terminated early; max |alpha − (1 − T)|"
+                         f" {np.abs(alpha - (1.0 - T_numba)).max():.1e}")
     return lines
 
 
@@ -381,7 +382,8 @@ def format_table(rows):
         ratio = d["ours"] / d["vtk"]
         ns = f"{d['ns']:.1f}" if np.isfinite(d["ns"]) else ""
         ms = f"{d['samples'] / 1e6:.2f}" if np.isfinite(d["samples"]) else ""
-        lines.append(f"{d['row']:34s} {d['ours']:>8.3f} {d['vtk']:>8.3f} {ratio:>9.2f} {'≤' + format(d['target'], 'g'):>7}"
+        target = "≤" + format(d["target"], "g")
+        lines.append(f"{d['row']:34s} {d['ours']:>8.3f} {d['vtk']:>8.3f} {ratio:>9.2f} {target:>7}"
                      f" {'yes' if ratio <= d['target'] else 'no':>4} {ns:>17} {ms:>11}")
     return lines
 
@@ -496,7 +498,8 @@ def main(argv=None):
     rows = measure_rows(frames, vtk, args.repeats)
     vtk.close()
     threads = numba.get_num_threads()
-    table = [f"supernova {args.n}³, {size[0]}x{size[1]}, one point light (intensity {LIGHT_INTENSITY:g}) at the centre, "
+    table = [f"supernova {args.n}³, {size[0]}x{size[1]}, one point light (intensity {LIGHT_INTENSITY:g})"
+             " at the centre, "
              f"albedo {ALBEDO}, step {frames.step:.5f} (half a voxel), early termination {ERT:g}; "
              f"{threads} Numba threads; VTK fixed_point EA interleaved frame by frame; medians of {args.repeats}"
              f" after a warm-up pair", ""]
