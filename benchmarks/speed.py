@@ -1,0 +1,522 @@
+"""Speed (issue 16): every kind of frame against VTK's ``fixed_point`` emission–absorption frame,
+measured interleaved in one process, plus our cost per marched sample.
+
+Scene: the synthetic supernova at ``--n``³ (point array ``density``, ``suggested_style`` with albedo
+0.9), one point light of intensity 4 at the centre (0, 0, 0), camera from (0, −3.6, 0.6) looking at
+the centre (view angle 30°), ``--size``² pixels, half-voxel step (``Renderer.default_step()``,
+quality "balanced"). Rows (the issue's table):
+
+* camera move — EA, single scattering (SS), ambient scattering (AS, Beer–Lambert), diffusion: every
+  cache warm, the camera turned by 1° per frame (only the ray cast runs);
+* relight — SS and AS: the light moves by 0.02 (a new position each frame), the moved light's volumes
+  are rebuilt, then the ray cast;
+* TF change — AS: a new ``Renderer`` of another density scale that shares the preintegrated table
+  slices (``cache.share``: the disk cache's role), then its first frame;
+* first frame — SS, AS, diffusion: a new ``Renderer`` (classification included) and its first frame,
+  table slices shared as above; Numba compiled beforehand (the warm-up frame).
+
+Every row alternates one VTK ``fixed_point`` frame (same TF, camera and step; the VTK camera changes
+a little every frame, or VTK would not re-render) and one frame of ours in the same loop: after a
+warm-up pair, ``--repeats`` pairs (≥ 5), and each side's median. VTK's frame time drifts by several×
+on a shared machine, hence the interleaving and the printed VTK time per row. Printed per row: our
+median, VTK's median, the ratio, the issue's target ratio, whether it is met, and for the camera moves
+the cost in ns per marched sample per thread = time × threads / samples, where ``samples`` are the ray
+cast's segments in non-empty majorant blocks up to early termination — counted by
+:func:`count_samples`, which walks the ray cast's march (``pv_ambient._kernels.raycast.march_pixel``)
+with the kernels' own scalar functions. Before the table the count is checked on a tiny scene against
+a brute-force NumPy march (:func:`brute_force_count`) and against the ray cast's own alpha.
+
+Options: ``--threads-scaling`` re-runs the camera-move and relight rows in subprocesses with
+NUMBA_NUM_THREADS=1 and 2 and prints the speed-up; ``--memory`` renders AS with two lights in a fresh
+subprocess and prints its peak resident-set growth above its size after imports, loading the grid and
+a warm-up compile (``resource.getrusage``; the peak restarted there through ``/proc/self/clear_refs``)
+as a multiple of the volume's float32 size; ``--drag`` prints frames
+per second over a simulated 36-step camera drag (1° azimuth per step, caches warm) per model.
+
+The table is also written to ``benchmarks/results/speed_n{N}.txt`` (``--out`` for another folder),
+the command line at its top.
+
+Usage (from the repository root)::
+
+    python benchmarks/speed.py [--n 128] [--size 512] [--repeats 5] [--threads-scaling] [--memory] [--drag]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+import pv_ambient as pa  # noqa: E402
+from pv_ambient._kernels import records as K  # noqa: E402
+from pv_ambient import datasets  # noqa: E402
+from pv_ambient._kernels.geometry import camera_ray, ray_box  # noqa: E402
+from pv_ambient._kernels.majorant import block_at, block_span  # noqa: E402
+from pv_ambient._kernels.medium import MODE_GRID  # noqa: E402
+from pv_ambient._kernels.raycast import index_ray, medium_sigma_color  # noqa: E402
+from pv_ambient.rendering.presets import MAJORANT_BLOCK  # noqa: E402
+
+ERT = 1e-5  # the renderer's default early termination
+LIGHT_INTENSITY = 4.0
+ALBEDO = 0.9
+MODELS = {"EA": "emission_absorption", "SS": "single_scattering", "AS": "ambient_scattering",
+          "diffusion": "diffusion"}
+
+# (row, kind, model, target ratio): the issue's table, one row per model where it names two
+ROWS = [
+    ("emission-absorption, camera move", "camera", "EA", 1.0),
+    ("single scattering, camera move", "camera", "SS", 2.0),
+    ("ambient scattering, camera move", "camera", "AS", 3.0),
+    ("diffusion, camera move", "camera", "diffusion", 3.0),
+    ("relight (one light moved), SS", "relight", "SS", 5.0),
+    ("relight (one light moved), AS", "relight", "AS", 5.0),
+    ("TF change, AS", "tf", "AS", 10.0),
+    ("first frame, SS", "first", "SS", 10.0),
+    ("first frame, AS", "first", "AS", 10.0),
+    ("first frame, diffusion", "first", "diffusion", 30.0),
+]
+
+
+# --- the scene ------------------------------------------------------------------------------
+
+def base_camera():
+    return pa.Camera((0.0, -3.6, 0.6), (0, 0, 0), (0, 0, 1), view_angle=30)
+
+
+def turned(cam, degrees):
+    """``cam`` turned by ``degrees`` of azimuth about its focal point."""
+    c = cam.to_vtk()
+    c.Azimuth(float(degrees))
+    return pa.Camera.from_vtk(c)
+
+
+def transfer_function(density_factor=1.0, clim=None):
+    style = datasets.suggested_style("supernova")
+    style = {**style, "density_scale": style["density_scale"] * density_factor, "clim": clim or style["clim"]}
+    return pa.TransferFunction(**style, albedo=ALBEDO)
+
+
+def light_at(x):
+    return pa.PointLight((float(x), 0.0, 0.0), intensity=LIGHT_INTENSITY)
+
+
+# --- VTK, the peer --------------------------------------------------------------------------
+
+class VtkPeer:
+    """VTK's ``fixed_point`` EA render of the renderer's TF, one frame per :meth:`frame`."""
+
+    def __init__(self, grid, renderer, size, step):
+        import pyvista as pv
+
+        from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
+
+        self.plotter = pv.Plotter(off_screen=True, window_size=size)
+        add_vtk_volume(self.plotter, grid, renderer, step=step, mapper="fixed_point")
+
+    def frame(self, camera):
+        """Wall time of one render from ``camera`` (which must differ from the last one's)."""
+        pl = self.plotter
+        camera.to_vtk(pl.camera)
+        pl.renderer.ResetCameraClippingRange()
+        t = time.perf_counter()
+        pl.ren_win.Render()
+        return time.perf_counter() - t
+
+    def close(self):
+        self.plotter.close()
+
+
+def interleaved(vtk, ours, vtk_camera, repeats):
+    """Medians (ours, VTK) over ``repeats`` pairs after a warm-up pair: per k, one VTK frame from
+    ``vtk_camera(k)``, then ``ours(k)`` (timed here). ``vtk`` None: ours only (VTK's median nan)."""
+    mine, theirs = [], []
+    for k in range(repeats + 1):
+        tv = vtk.frame(vtk_camera(k)) if vtk is not None else float("nan")
+        t = time.perf_counter()
+        ours(k)
+        to = time.perf_counter() - t
+        if k:
+            mine.append(to)
+            theirs.append(tv)
+    return float(np.median(mine)), float(np.median(theirs))
+
+
+# --- what each row times ---------------------------------------------------------------------
+
+class Frames:
+    """The frame functions of each kind of row, ``fn(k)`` for frame k, and the VTK camera of each."""
+
+    def __init__(self, grid, size, step):
+        self.grid, self.size, self.step = grid, size, step
+        self.cam = base_camera()
+        self.renderer = pa.Renderer(grid, transfer_function=transfer_function(), lights=[light_at(0.0)])
+        self.moves = 0  # every relight goes to a position never used before (no cached volume)
+
+    def render(self, renderer, model, camera):
+        return renderer.render(camera=camera, window_size=self.size, model=MODELS[model], step=self.step)
+
+    def camera_of(self, kind, k):
+        """The camera of frame k of a row: turned 1° per frame for a camera move, else fixed."""
+        return turned(self.cam, k) if kind == "camera" else self.cam
+
+    def vtk_camera_of(self, kind, k):
+        """VTK's camera: ours for a camera move; else ours turned by a tiny, changing angle."""
+        return turned(self.cam, k) if kind == "camera" else turned(self.cam, 0.05 * (k % 2))
+
+    def frame_fn(self, kind, model):
+        r = self.renderer
+        if kind == "camera":
+            return lambda k: self.render(r, model, self.camera_of(kind, k))
+        if kind == "relight":
+            def relight(k):
+                self.moves += 1
+                r.set_lights([light_at(0.02 * self.moves)])
+                self.render(r, model, self.cam)
+            return relight
+        if kind == "tf":
+            def tf_change(k):
+                self.moves += 1
+                r2 = pa.Renderer(self.grid, transfer_function=transfer_function(1.0 + 0.02 * self.moves),
+                                 lights=[light_at(0.0)])
+                r2.cache.share(r.cache)  # the preintegrated table slices: the disk cache's role
+                self.render(r2, model, self.cam)
+            return tf_change
+        if kind == "first":
+            def first(k):
+                r2 = pa.Renderer(self.grid, transfer_function=transfer_function(), lights=[light_at(0.0)])
+                r2.cache.share(r.cache)
+                self.render(r2, model, self.cam)
+            return first
+        raise ValueError(kind)
+
+
+# --- marched samples --------------------------------------------------------------------------
+
+@numba.njit(parallel=True, cache=True)
+def count_samples(view, medium, step, ert, W, H, counts, trans):
+    """Per pixel, the segments the ray cast marches in non-empty majorant blocks before early
+    termination (``counts``) and the ray's remaining transmittance (``trans``): ``march_pixel``'s
+    loop (no jitter, no ray end) with its source terms left out."""
+    cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
+    maj, block = medium.maj, medium.block
+    for j in numba.prange(H):
+        for i in range(W):
+            ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, W, H)
+            px, py, pz, qx, qy, qz = index_ray(w2i, ox, oy, oz, dx, dy, dz)
+            t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+            t0 = max(t0, 0.0)
+            n = 0
+            T = 1.0
+            if t0 < t1:
+                t = t0
+                tnext = t0 + step
+                t_block = -1.0
+                while t < t1:
+                    te = min(tnext, t1)
+                    tm = 0.5 * (t + te)
+                    x = px + tm * qx
+                    y = py + tm * qy
+                    z = pz + tm * qz
+                    if tm >= t_block:
+                        ba, bb, bc = block_at(x, y, z, maj, block)
+                        _, _, _, tex = block_span(px, py, pz, qx, qy, qz, ba, bb, bc, maj, block, tm, t1)
+                        if maj[ba, bb, bc] <= 0.0:
+                            t = max(tex, te)  # skip the empty block; realign the segment grid after it
+                            tnext = t + step
+                            continue
+                        t_block = tex
+                    n += 1
+                    sig = medium_sigma_color(medium, x, y, z)[0]
+                    if sig > 0.0:
+                        T *= np.exp(-sig * (te - t))
+                        if T < ert:
+                            break
+                    t = te
+                    tnext = te + step
+            counts[j, i] = n
+            trans[j, i] = T
+
+
+def march_records(renderer, camera, size):
+    """The ray cast's View and Medium records of ``camera`` at ``size``."""
+    return (K.view_of(camera, size, renderer.geometry),
+            K.medium_of(renderer.optics, renderer.majorant(), MAJORANT_BLOCK))
+
+
+def sample_counts(renderer, camera, size, step, ert=ERT):
+    """Per-pixel marched samples (H, W) and remaining transmittance of ``camera``'s frame."""
+    view, medium = march_records(renderer, camera, size)
+    w, h = size
+    counts = np.zeros((h, w), np.int64)
+    trans = np.zeros((h, w), np.float64)
+    count_samples(view, medium, float(step), float(ert), w, h, counts, trans)
+    return counts, trans
+
+
+def brute_force_count(renderer, camera, size, step, ert=ERT):
+    """The same count in NumPy, all pixels at once, no block cache: every segment looks its block
+    up, an empty block is skipped to its exit; σt by explicit trilinear interpolation and the table
+    by ``np.interp`` (perspective cameras only)."""
+    view, medium = march_records(renderer, camera, size)
+    cam, w2i = view.cam, np.asarray(view.w2i)
+    assert cam[14] < 0.5, "perspective camera"
+    w, h = size
+    jj, ii = np.mgrid[0:h, 0:w].astype(np.float64)
+    su = 2.0 * (ii + 0.5) / w - 1.0
+    sv = 1.0 - 2.0 * (jj + 0.5) / h
+    d = np.stack([cam[3 + a] + su * cam[12] * cam[13] * cam[6 + a] + sv * cam[12] * cam[9 + a] for a in range(3)], -1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    p = np.broadcast_to(w2i[:3, :3] @ cam[0:3] + w2i[:3, 3], d.shape)
+    q = d @ w2i[:3, :3].T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta = (np.asarray(view.lo) - p) / q
+        tb = (np.asarray(view.hi) - p) / q
+    t0 = np.maximum(np.nanmax(np.minimum(ta, tb), axis=-1), 0.0)
+    t1 = np.nanmin(np.maximum(ta, tb), axis=-1)
+    maj, B = medium.maj, medium.block
+    m = np.array(maj.shape)
+    field = np.asarray(medium.field, np.float64)
+    nf = np.array(field.shape)
+    table = np.asarray(medium.table)[:, 0].astype(np.float64)
+
+    def sigma(x):
+        xc = np.clip(x, 0.0, nf - 1)
+        i0 = np.minimum(np.floor(xc).astype(int), nf - 2)
+        f = xc - i0
+        s = 0.0
+        for c in np.ndindex(2, 2, 2):
+            wgt = np.prod(np.where(np.array(c), f, 1.0 - f), axis=-1)
+            s = s + wgt * field[i0[:, 0] + c[0], i0[:, 1] + c[1], i0[:, 2] + c[2]]
+        if medium.mode == MODE_GRID:
+            return s
+        u = np.clip((s - medium.lut_lo) * medium.lut_inv, 0.0, table.size - 1)
+        return np.interp(u, np.arange(table.size), table)
+
+    def block_exit(pp, qq, blk):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            up = np.where(blk >= m - 1, np.inf, ((blk + 1) * B - pp) / qq)
+            down = np.where(blk <= 0, np.inf, (blk * B - pp) / qq)
+        return np.min(np.where(qq > 0, up, np.where(qq < 0, down, np.inf)), axis=-1)
+
+    p, q, t0, t1 = p.reshape(-1, 3), q.reshape(-1, 3), t0.ravel(), t1.ravel()
+    t, tnext, T = t0.copy(), t0 + step, np.ones(t0.size)
+    counts = np.zeros(t0.size, np.int64)
+    live = np.nonzero(t0 < t1)[0]
+    while live.size:
+        te = np.minimum(tnext[live], t1[live])
+        tm = 0.5 * (t[live] + te)
+        x = p[live] + tm[:, None] * q[live]
+        blk = np.clip(np.floor(x / B).astype(int), 0, m - 1)
+        empty = maj[blk[:, 0], blk[:, 1], blk[:, 2]] <= 0.0
+        tex = np.maximum(np.minimum(block_exit(p[live], q[live], blk), t1[live]), tm)
+        counts[live] += ~empty
+        T[live] *= np.where(empty, 1.0, np.exp(-sigma(x) * (te - t[live])))
+        t[live] = np.where(empty, np.maximum(tex, te), te)
+        tnext[live] = t[live] + step
+        live = live[(t[live] < t1[live]) & (T[live] >= ert)]
+    return counts.reshape(h, w), T.reshape(h, w)
+
+
+def check_count(n=48, size=(48, 40)):
+    """Lines reporting :func:`count_samples` against :func:`brute_force_count` and against the EA
+    ray cast's alpha on a small scene: three cameras; the supernova's TF as is, its density ×30 (rays
+    then terminate early) and its colour/opacity range starting at 0.15 (empty blocks to skip)."""
+    lines = [f"sample-count check (supernova n={n}, {size[0]}x{size[1]}; numba count vs NumPy brute force,"
+             f" and the count's 1 − T vs the EA ray cast's alpha):"]
+    grid = datasets.supernova(n=n)
+    cases = {"as is": transfer_function(), "density ×30": transfer_function(30.0),
+             "clim (0.15, 1)": transfer_function(clim=(0.15, 1.0))}
+    for name, tf in cases.items():
+        r = pa.Renderer(grid, transfer_function=tf)
+        step = r.default_step()
+        maj = r.majorant()
+        lines.append(f"  TF {name}: {int((maj <= 0).sum())} of {maj.size} majorant blocks empty")
+        for deg in (0.0, 37.0, 101.0):
+            cam = turned(base_camera(), deg)
+            c_numba, T_numba = sample_counts(r, cam, size, step)
+            c_numpy, _ = brute_force_count(r, cam, size, step)
+            alpha = r.render(camera=cam, window_size=size, step=step).alpha
+            lines.append(f"    azimuth {deg:5.1f}°: numba {int(c_numba.sum())} samples, NumPy {int(c_numpy.sum())}"
+                         f" ({int((c_numba != c_numpy).sum())} pixels differ, max |diff|"
+                         f" {int(np.abs(c_numba - c_numpy).max())}); {int((T_numba < ERT).sum())} of {T_numba.size}"
+                         f" rays terminated early; max |alpha − (1 − T)|"
+                         f" {np.abs(alpha - (1.0 - T_numba)).max():.1e}")
+    return lines
+
+
+# --- the table ----------------------------------------------------------------------------------
+
+def measure_rows(frames, vtk, repeats, kinds=None):
+    """Dicts per row: ours, VTK, samples (camera moves; nan otherwise)."""
+    out = []
+    threads = numba.get_num_threads()
+    for name, kind, model, target in ROWS:
+        if kinds and kind not in kinds:
+            continue
+        ours, theirs = interleaved(vtk, frames.frame_fn(kind, model), lambda k: frames.vtk_camera_of(kind, k), repeats)
+        samples = float("nan")
+        if kind == "camera":
+            samples = float(np.mean([sample_counts(frames.renderer, frames.camera_of(kind, k), frames.size,
+                                                   frames.step)[0].sum() for k in range(1, repeats + 1)]))
+        out.append(dict(row=name, kind=kind, model=model, target=target, ours=ours, vtk=theirs, samples=samples,
+                        ns=ours * threads / samples * 1e9))
+        print(f"  measured {name}: {ours:.3f} s (VTK {theirs:.3f} s)", flush=True)
+    return out
+
+
+def format_table(rows):
+    head = (f"{'frame':34s} {'ours s':>8} {'VTK s':>8} {'ours/VTK':>9} {'target':>7} {'met':>4}"
+            f" {'ns/sample/thread':>17} {'samples (M)':>11}")
+    lines = [head, "-" * len(head)]
+    for d in rows:
+        ratio = d["ours"] / d["vtk"]
+        ns = f"{d['ns']:.1f}" if np.isfinite(d["ns"]) else ""
+        ms = f"{d['samples'] / 1e6:.2f}" if np.isfinite(d["samples"]) else ""
+        target = "≤" + format(d["target"], "g")
+        lines.append(f"{d['row']:34s} {d['ours']:>8.3f} {d['vtk']:>8.3f} {ratio:>9.2f} {target:>7}"
+                     f" {'yes' if ratio <= d['target'] else 'no':>4} {ns:>17} {ms:>11}")
+    return lines
+
+
+# --- options: thread scaling, memory, drag ---------------------------------------------------------
+
+def child_rows(args, threads):
+    """The camera-move and relight rows (ours only) in a subprocess with ``threads`` Numba threads."""
+    cmd = [sys.executable, __file__, "--n", str(args.n), "--size", str(args.size), "--repeats", str(args.repeats),
+           "--child-rows"]
+    env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def threads_scaling(args):
+    one, two = child_rows(args, 1), child_rows(args, 2)
+    lines = ["thread scaling (ours only, subprocesses with NUMBA_NUM_THREADS=1 and 2; target 1 → 2 ≥ 1.8×):",
+             f"  {'frame':34s} {'1 thread s':>10} {'2 threads s':>11} {'speed-up':>9}"]
+    for a, b in zip(one, two):
+        lines.append(f"  {a['row']:34s} {a['ours']:>10.3f} {b['ours']:>11.3f} {a['ours'] / b['ours']:>9.2f}")
+    return lines
+
+
+def peak_rss():
+    """This process's peak resident set (bytes; ``ru_maxrss`` is in kB on Linux)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def reset_peak_rss() -> bool:
+    """Restart the peak at the current resident set (Linux ``clear_refs`` 5, which ``ru_maxrss``
+    follows): else the warm-up's compilation peak would hide the growth of a small scene."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def memory_child(n, size):
+    """Peak RSS growth of rendering AS with two lights at n³ (JSON): the grid is loaded (its synthesis
+    has a peak of its own, not the renderer's) and the kernels compiled on a small scene, then the
+    peak is restarted, then a Renderer renders its first frame."""
+    lights = [light_at(0.0), light_at(0.4)]
+    grid = datasets.supernova(n=n)
+    small = pa.Renderer(datasets.supernova(n=24), transfer_function=transfer_function(), lights=lights)
+    small.render(camera=base_camera(), window_size=(32, 32), model="ambient_scattering")
+    reset = reset_peak_rss()
+    base = peak_rss()
+    r = pa.Renderer(grid, transfer_function=transfer_function(), lights=lights)
+    r.render(camera=base_camera(), window_size=size, model="ambient_scattering")
+    print(json.dumps(dict(base=base, peak=peak_rss(), volume=n ** 3 * 4, reset=reset)))
+
+
+def memory(args):
+    cmd = [sys.executable, __file__, "--n", str(args.n), "--size", str(args.size), "--child-memory"]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    d = json.loads(out.strip().splitlines()[-1])
+    mb = 1024 ** 2
+    grow = d["peak"] - d["base"]
+    reset = "peak reset there" if d["reset"] else "peak NOT reset: the warm-up's"
+    return [f"memory (fresh process, AS with two lights, n={args.n}, {args.size}²; target ≤ 12× the volume):",
+            f"  RSS with the grid loaded, after imports and a warm-up compile {d['base'] / mb:.0f} MiB ({reset});"
+            f" peak of the first AS frame {d['peak'] / mb:.0f} MiB; growth {grow / mb:.0f} MiB ="
+            f" {grow / d['volume']:.1f}× the volume's float32 size ({d['volume'] / mb:.1f} MiB)"]
+
+
+def drag(frames, steps=36):
+    """Frames per second over a ``steps``-frame camera drag (1° azimuth per frame), caches warm."""
+    lines = [f"camera drag ({steps} frames, 1° per frame, caches warm; target ≥ 10 fps):"]
+    for model in MODELS:
+        frames.render(frames.renderer, model, frames.cam)
+        t = time.perf_counter()
+        for k in range(1, steps + 1):
+            frames.render(frames.renderer, model, turned(frames.cam, k))
+        lines.append(f"  {model:10s} {steps / (time.perf_counter() - t):6.2f} fps")
+    return lines
+
+
+# --- main --------------------------------------------------------------------------------------------
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=128, help="volume size n³ (the issue: 128 and 256)")
+    ap.add_argument("--size", type=int, default=512, help="image size² (pixels)")
+    ap.add_argument("--repeats", type=int, default=5, help="timed frames per row (medians; the issue: ≥ 5)")
+    ap.add_argument("--threads-scaling", action="store_true", help="camera-move and relight rows with 1 and 2 threads")
+    ap.add_argument("--memory", action="store_true", help="peak RSS growth of a fresh process rendering AS, 2 lights")
+    ap.add_argument("--drag", action="store_true", help="frames per second over a 36-frame camera drag")
+    ap.add_argument("--out", default=str(Path(__file__).parent / "results"), help="folder of speed_n{N}.txt")
+    ap.add_argument("--child-rows", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--child-memory", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    size = (args.size, args.size)
+    if args.child_memory:
+        return memory_child(args.n, size)
+    grid = datasets.supernova(n=args.n)
+    frames = Frames(grid, size, None)
+    frames.step = frames.renderer.default_step()
+    if args.child_rows:
+        rows = measure_rows(frames, None, args.repeats, kinds=("camera", "relight"))
+        print(json.dumps([{"row": d["row"], "ours": d["ours"]} for d in rows]))
+        return None
+
+    lines = ["$ python " + " ".join(sys.argv), ""]
+    lines += check_count() + [""]
+    print("\n".join(lines), flush=True)
+    vtk = VtkPeer(grid, frames.renderer, size, frames.step)
+    rows = measure_rows(frames, vtk, args.repeats)
+    vtk.close()
+    threads = numba.get_num_threads()
+    table = [f"supernova {args.n}³, {size[0]}x{size[1]}, one point light (intensity {LIGHT_INTENSITY:g})"
+             " at the centre, "
+             f"albedo {ALBEDO}, step {frames.step:.5f} (half a voxel), early termination {ERT:g}; "
+             f"{threads} Numba threads; VTK fixed_point EA interleaved frame by frame; medians of {args.repeats}"
+             f" after a warm-up pair", ""]
+    table += format_table(rows)
+    lines += table
+    for flag, fn in ((args.threads_scaling, lambda: threads_scaling(args)), (args.memory, lambda: memory(args)),
+                     (args.drag, lambda: drag(frames))):
+        if flag:
+            extra = [""] + fn()
+            table += extra
+            lines += extra
+    print("\n".join(table))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"speed_n{args.n}.txt").write_text("\n".join(lines) + "\n")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
