@@ -39,10 +39,6 @@ class SceneCache:
             self._entries[key] = build()
         return self._entries[key]
 
-    def peek(self, key: tuple, default=None):
-        """The entry ``key`` if present (nothing is built)."""
-        return self._entries.get(key, default)
-
     def __getitem__(self, key: tuple):
         return self._entries[key]
 

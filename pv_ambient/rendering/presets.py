@@ -54,10 +54,6 @@ MODEL_TABLE = (
 MODEL_SPECS = {m.name: m for m in MODEL_TABLE}
 #: Every name ``model=`` accepts.
 ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
-#: The models that are implemented by a ray cast (``auto`` stands for one of them or the path tracer).
-RAY_CAST_MODELS = tuple(m.name for m in MODEL_TABLE if m.kernel_id is not None)
-#: The models whose images use the lights.
-LIT_MODELS = tuple(m.name for m in MODEL_TABLE if m.lit and m.name != "auto")
 
 #: Quality presets: what each sets when the knob is not given explicitly — ray step (smallest grid
 #: spacings), light-grid nodes per data spacing (None: the default of docs/ambient_scattering.rst §3,

@@ -314,7 +314,7 @@ class Renderer(SceneStages):
         model, extra = self.choose_model(req)
         options = {**req.options, **extra}
         if model == "path_traced":
-            return self._path_trace(req, options, requested=req.model)
+            return self._path_trace(req, options)
         return self._render(req, model, options)
 
     def _render(self, req, model, model_options):
@@ -429,7 +429,7 @@ class Renderer(SceneStages):
         return RenderResult(radiance=out.radiance, alpha=out.alpha, camera=cam, metadata=out.metadata,
                             std_error=out.std_error)
 
-    def _path_trace(self, req, options, requested):
+    def _path_trace(self, req, options):
         denoise = options.get("denoise", False)
         if denoise:
             from ..stages.denoise import available, denoise_radiance
