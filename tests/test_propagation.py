@@ -125,3 +125,25 @@ def test_single_scattering_point_light_falloff_is_exact():
     f = lambda t: sig * 3.0 / np.sum((o + t * d - lp) ** 2) / (4 * np.pi)  # noqa: E731
     expected = quad(f, t0, t1)[0]
     assert res.radiance[1, 1, 0] == pytest.approx(expected, rel=2e-3)
+
+
+@pytest.mark.parametrize("light_pos", [(0.5, 0.5, 0.5), (0.21, 0.77, 0.43), (0.0, 0.25, 0.5), (-0.3, 0.6, 0.25),
+                                       (0.5, 1.7, -0.2), (0.5, 0.5, 0.0)])
+def test_pyramid_sweep_equals_whole_layer_sweep(light_pos, monkeypatch):
+    # a point light's sweeps compute only the nodes they write or read (sweep_reach); whole layers
+    # (reach = inf everywhere) must give the same bits on a heterogeneous medium with a
+    # non-cubic grid and uneven spacing
+    from pv_ambient.stages import propagation
+
+    rng = np.random.default_rng(11)
+    field = rng.random((47, 41, 17)).astype(np.float32) * 3.0  # flat: pyramids wider than the z extent
+    vol = Volume(field, spacing=(1 / 46, 1 / 40 * 1.3, 1 / 32))
+    from pv_ambient.inputs.transfer import _grid_optics
+
+    optics = _grid_optics(field, np.zeros(field.shape + (6,), np.float32))
+    grid = make_light_grid(vol.geometry, 1.0)
+    sig = sigma_on_grid(optics, grid)
+    fast = optical_depth(sig, grid, vol.geometry, PointLight(light_pos))
+    monkeypatch.setattr(propagation, "sweep_reach", lambda na, la, sign, jump: np.full(na, np.inf))
+    whole = optical_depth(sig, grid, vol.geometry, PointLight(light_pos))
+    assert np.array_equal(fast, whole)

@@ -205,8 +205,17 @@ def sweep_start(na, is_point, la, sign):
     return 0 if sign > 0 else na - 1
 
 
+@scalar
+def lateral_range(n, l, reach):
+    """Nodes ``[i0, i1]`` of a lateral axis of ``n`` nodes within ``reach`` of the light's
+    coordinate ``l`` on it (all nodes for an infinite reach)."""
+    if not (reach < math.inf):
+        return 0, n - 1
+    return max(0, int(math.floor(l - reach))), min(n - 1, int(math.ceil(l + reach)))
+
+
 @driver
-def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
+def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist, reach):
     """One sweep along axis ``a`` in direction ``sign`` (+1: increasing index) away from the light
     (CPU driver: layers in order, each layer's nodes in parallel by :func:`sweep_node`).
 
@@ -220,8 +229,15 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
     segment in half-cell trapezoid steps. ``hist`` (jump + 1, nb, nc) float64 is a ring buffer of
     the last layers' path-mean extinction q = τ/ℓ (ℓ: path length inside the box toward the light);
     interpolating q rather than τ makes the scheme exact in a homogeneous medium.
+    ``reach[k]`` bounds layer k's nodes laterally (per axis, around the light; ``inf``: all): a point
+    light's sweep along ``a`` writes only the pyramid of nodes whose dominant axis is ``a``, and
+    :func:`pv_ambient.stages.propagation.sweep_reach` widens it by what their characteristics read.
     """
     na = sig.shape[a]
+    b = 1 if a == 0 else 0
+    c = 2 if a != 2 else 1
+    lb = lx if b == 0 else ly
+    lc = lz if c == 2 else ly
     nb = hist.shape[1]
     nc = hist.shape[2]
     nslot = hist.shape[0]
@@ -233,8 +249,10 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist):
         J = min(jump, done_layers)
         prev = hist[(done_layers - J) % nslot]
         cur = hist[slot]
-        for ib in prange(nb):
-            for ic in range(nc):
+        b0, b1 = lateral_range(nb, lb, reach[k])
+        c0, c1 = lateral_range(nc, lc, reach[k])
+        for ib in prange(b0, b1 + 1):
+            for ic in range(c0, c1 + 1):
                 sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur)
         done_layers += 1
         k += sign
