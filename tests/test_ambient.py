@@ -124,7 +124,10 @@ def test_camera_move_and_relight_reuse_caches():
     r.set_lights([moved, LIGHTS[1]])
     render(r, "ambient_scattering", propagation="tube")
     new = set(r.cache) - keys
-    assert new and all(moved in k for k in new)  # only the moved light's volumes are computed
+    # only the moved light's volumes are computed, and the baked in-scattering of the new set of
+    # lights (isotropic phase), which replaces the old set's
+    assert new and all(moved in (k[1] if k[0] == "incident" else k) for k in new)
+    assert sum(k[0] == "incident" for k in new) == 1 and sum(k[0] == "incident" for k in r.cache) == 1
 
 
 def test_auto_rules():

@@ -122,3 +122,23 @@ def test_bad_arguments(kwargs, err, match):
 def test_bad_opacity_name(grid):
     with pytest.raises(ValueError, match="opacity"):
         TransferFunction(opacity="not-a-ramp").resolve(grid)
+
+
+def test_classified_grids_match_numpy_interp():
+    # sigma_grid/albedo_grid (a parallel kernel) against np.interp of the table over its entries,
+    # scalars below, inside and above the table's range
+    from pv_ambient.inputs.grid import Volume
+
+    rng = np.random.default_rng(4)
+    s = (rng.random((13, 11, 7)) * 1.4 - 0.2).astype(np.float32)
+    tf = TransferFunction(cmap="viridis", clim=(0.0, 1.0), density_scale=3.0, albedo=(0.2, 0.5, 0.9))
+    optics = tf.resolve(Volume(s))
+    table = optics.table.astype(np.float64)
+    u = np.clip((s.astype(np.float64) - optics.lut_lo) * optics.lut_inv, 0, table.shape[0] - 1)
+    entries = np.arange(table.shape[0])
+    sig = np.interp(u, entries, table[:, 0])
+    alb = np.stack([np.interp(u, entries, table[:, 1 + c]) for c in range(3)], -1)
+    assert optics.sigma_grid().dtype == np.float32 and optics.albedo_grid().shape == s.shape + (3,)
+    np.testing.assert_allclose(optics.sigma_grid(), sig, rtol=1e-6, atol=1e-7 * sig.max())
+    np.testing.assert_allclose(optics.albedo_grid(), alb, rtol=1e-6, atol=1e-7)
+    assert len(np.unique(sig)) > 100 and sig.min() == 0.0 and not np.allclose(alb[..., 0], alb[..., 2])

@@ -101,23 +101,136 @@ def light_at(l, lights, wx, wy, wz):
 def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     """Σ_j E_j T_j p(θ_j) (rgb): in-scattered direct light toward the camera (−d); T_j from the
     optical depth on the light grid (a :class:`.records.LightGrid`)."""
-    lkind, pkind, g = lights.kind, lights.pkind, lights.g
-    llo, linv, tau = grid.lo, grid.inv_step, grid.tau
     sr = 0.0
     sg = 0.0
     sb = 0.0
-    lx = (x - llo[0]) * linv[0]
-    ly = (y - llo[1]) * linv[1]
-    lz = (z - llo[2]) * linv[2]
-    for l in range(lkind.shape[0]):
-        er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
-        T = math.exp(-trilinear_c(tau, lx, ly, lz, l))
-        p = phase_eval(pkind, g, -(ox * dx + oy * dy + oz * dz))
-        w = T * p
-        sr += er * w
-        sg += eg * w
-        sb += eb * w
+    for l in range(lights.kind.shape[0]):
+        er, eg, eb = direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
+        sr += er
+        sg += eg
+        sb += eb
     return sr, sg, sb
+
+
+@scalar
+def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
+    """Light ``l``'s term of :func:`direct_light`: ``E_l T_l p(θ_l)`` (rgb)."""
+    llo, linv, tau = grid.lo, grid.inv_step, grid.tau
+    er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
+    T = math.exp(-trilinear_c(tau, (x - llo[0]) * linv[0], (y - llo[1]) * linv[1], (z - llo[2]) * linv[2], l))
+    p = phase_eval(lights.pkind, lights.g, -(ox * dx + oy * dy + oz * dz))
+    w = T * p
+    return er * w, eg * w, eb * w
+
+
+@scalar
+def baked_light(x, y, z, wx, wy, wz, lights, grid):
+    """The in-scattered light (rgb, per unit albedo) from the baked ``grid.inc``: per point light its
+    smooth factor ``I_j (T_j p + Φ_j D_j)`` interpolated and divided by ``max(d_j², d2min)`` here, at
+    the sample (the 1/d² singularity is not interpolated), plus the directional lights' summed slot.
+    ``grid.baked`` is the number of channels per slot (1: grey, 3: rgb); see :func:`bake_incident`."""
+    inc = grid.inc
+    nch = grid.baked
+    llo, linv = grid.lo, grid.inv_step
+    lkind, lvec, d2min = lights.kind, lights.vec, lights.d2min
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(inc, (x - llo[0]) * linv[0], (y - llo[1]) * linv[1],
+                                                (z - llo[2]) * linv[2])
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    slot = 0
+    for l in range(lkind.shape[0]):
+        if lkind[l] == 0:
+            vx = wx - lvec[l, 0]
+            vy = wy - lvec[l, 1]
+            vz = wz - lvec[l, 2]
+            w = 1.0 / max(vx * vx + vy * vy + vz * vz, d2min)
+            q = slot * nch
+            r = w * corner_lerp(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
+            sr += r
+            if nch == 1:
+                sg += r
+                sb += r
+            else:
+                sg += w * corner_lerp(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1)
+                sb += w * corner_lerp(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2)
+            slot += 1
+    if (slot + 1) * nch <= inc.shape[3]:  # the directional lights' slot
+        q = slot * nch
+        r = corner_lerp(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
+        sr += r
+        if nch == 1:
+            sg += r
+            sb += r
+        else:
+            sg += corner_lerp(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1)
+            sb += corner_lerp(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2)
+    return sr, sg, sb
+
+
+@scalar
+def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, i, j, k, out):
+    """Node (i, j, k) of the baked in-scattered light (:func:`bake_incident`)."""
+    x = lo[0] + i * step[0]
+    y = lo[1] + j * step[1]
+    z = lo[2] + k * step[2]
+    wx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 2] * z + i2w[0, 3]
+    wy = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 2] * z + i2w[1, 3]
+    wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
+    lkind, lvec, d2min = lights.kind, lights.vec, lights.d2min
+    nl = lkind.shape[0]
+    for q in range(out.shape[3]):
+        out[i, j, k, q] = 0.0
+    ball_tau = 0.0
+    b1 = 0.0
+    b2 = 0.0
+    b3 = 0.0
+    if model == AMBIENT_SCATTERING:
+        bs, b1, b2, b3 = trilinear4(ambient.ball, x, y, z)
+        ball_tau = ambient.radius * bs
+    it, tt = tau_coord(ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, ball_tau)
+    slot = 0
+    for l in range(nl):
+        # isotropic phase and D: any view direction gives the same value
+        sr, sg, sb = direct_light_one(l, x, y, z, wx, wy, wz, 0.0, 0.0, 1.0, lights, grid)
+        if model == AMBIENT_SCATTERING:
+            mr, mg, mb = ambient_light_one(l, x, y, z, wx, wy, wz, 0.0, 0.0, 1.0, w2i, lights, grid, ambient, it, tt,
+                                           b1, b2, b3)
+            sr += mr
+            sg += mg
+            sb += mb
+        q = slot * nch
+        if lkind[l] == 0:  # undo the 1/d² the lookup applies at the sample
+            vx = wx - lvec[l, 0]
+            vy = wy - lvec[l, 1]
+            vz = wz - lvec[l, 2]
+            d2 = max(vx * vx + vy * vy + vz * vz, d2min)
+            sr *= d2
+            sg *= d2
+            sb *= d2
+            slot += 1
+        else:
+            q = (out.shape[3] // nch - 1) * nch
+        out[i, j, k, q] += sr
+        if nch == 3:
+            out[i, j, k, q + 1] += sg
+            out[i, j, k, q + 2] += sb
+
+
+@driver
+def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, out):
+    """The in-scattered light per unit albedo at every light-grid node for an isotropic phase
+    function (view-independent): per light ``E_j T_j p`` (single scattering and diffusion's direct
+    part) plus, for ambient scattering, ``E_j Φ_j D(r σ̄, ā)`` (D has no angle then). A point light
+    gets a slot of its own holding that times ``max(d_j², d2min)`` (smooth: :func:`baked_light`
+    divides by d² at the sample); the directional lights share the last slot. Node (i, j, k) sits at
+    data index ``lo + (i, j, k)·step``; ``w2i``/``i2w`` map world ↔ index. ``nch`` channels per slot:
+    1 when every channel is equal (the red one is kept), else 3; ``out`` is (m0, m1, m2, slots·nch)."""
+    m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
+    for k in prange(m2):
+        for j in range(m1):
+            for i in range(m0):
+                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, i, j, k, out)
 
 
 @scalar
@@ -161,42 +274,49 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, t
     when that is shorter) from the front optical depth ``grid.phi``: one component per light
     (grey, Beer–Lambert mode: the optical depth itself) or three per light (per channel, tube mode).
     """
-    lkind, lvec = lights.kind, lights.vec
-    llo, linv, phi = grid.lo, grid.inv_step, grid.phi
-    radius, D, a_nodes, tau_lo_log, tau_dlog = ambient.radius, ambient.D, ambient.a_nodes, ambient.tau_lo_log, \
-        ambient.tau_dlog
     sr = 0.0
     sg = 0.0
     sb = 0.0
-    nl = lkind.shape[0]
-    nch = phi.shape[3] // nl
-    it, tt = tau_coord(D.shape[1], tau_lo_log, tau_dlog, tau_b)
-    for l in range(nl):
-        er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
-        s = radius
-        if lkind[l] == 0:
-            vx = wx - lvec[l, 0]
-            vy = wy - lvec[l, 1]
-            vz = wz - lvec[l, 2]
-            s = min(s, math.sqrt(vx * vx + vy * vy + vz * vz))
-        qx, qy, qz = affine_vector(w2i, ox, oy, oz)
-        lx = (x - s * qx - llo[0]) * linv[0]
-        ly = (y - s * qy - llo[1]) * linv[1]
-        lz = (z - s * qz - llo[2]) * linv[2]
-        c = -(ox * dx + oy * dy + oz * dz)
-        if nch == 1:
-            fr = math.exp(-trilinear_c(phi, lx, ly, lz, l))
-            fg = fr
-            fb = fr
-        else:
-            fr = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l))
-            fg = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 1))
-            fb = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 2))
-        dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
-        sr += er * fr * dr
-        sg += eg * fg * dg
-        sb += eb * fb * db
+    it, tt = tau_coord(ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, tau_b)
+    for l in range(lights.kind.shape[0]):
+        mr, mg, mb = ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr,
+                                       abg, abb)
+        sr += mr
+        sg += mg
+        sb += mb
     return sr, sg, sb
+
+
+@scalar
+def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb):
+    """Light ``l``'s term of :func:`ambient_light`, ``E_l Φ_l D(θ_l, ·)`` (rgb), the τ coordinate of
+    D located as ``(it, tt)``."""
+    lkind, lvec = lights.kind, lights.vec
+    llo, linv, phi = grid.lo, grid.inv_step, grid.phi
+    radius, D, a_nodes = ambient.radius, ambient.D, ambient.a_nodes
+    nch = phi.shape[3] // lkind.shape[0]
+    er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
+    s = radius
+    if lkind[l] == 0:
+        vx = wx - lvec[l, 0]
+        vy = wy - lvec[l, 1]
+        vz = wz - lvec[l, 2]
+        s = min(s, math.sqrt(vx * vx + vy * vy + vz * vz))
+    qx, qy, qz = affine_vector(w2i, ox, oy, oz)
+    lx = (x - s * qx - llo[0]) * linv[0]
+    ly = (y - s * qy - llo[1]) * linv[1]
+    lz = (z - s * qz - llo[2]) * linv[2]
+    c = -(ox * dx + oy * dy + oz * dz)
+    if nch == 1:
+        fr = math.exp(-trilinear_c(phi, lx, ly, lz, l))
+        fg = fr
+        fb = fr
+    else:
+        fr = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l))
+        fg = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 1))
+        fb = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 2))
+    dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
+    return er * fr * dr, eg * fg * dg, eb * fb * db
 
 
 @scalar
@@ -212,10 +332,11 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     nch = diff.shape[3] // 4
     for c in range(nch):
         q = 4 * c
-        v = (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
-             - 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
-                          + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
-                          + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz))
+        v = corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
+        if g != 0.0:  # the flux term (no contribution to an isotropic phase function's radiance)
+            v -= 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
+                            + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
+                            + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz)
         v = max(v, 0.0) * INV_4PI_RC
         if c == 0:
             out0 = v
@@ -286,8 +407,11 @@ def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i,
                         wx = ox + tm * dx
                         wy = oy + tm * dy
                         wz = oz + tm * dz
-                        lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
-                        if model == AMBIENT_SCATTERING:
+                        if grid.baked:  # isotropic phase: the lights' in-scattering, baked
+                            lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+                        else:
+                            lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
+                        if model == AMBIENT_SCATTERING and not grid.baked:
                             bs, b1, b2, b3 = trilinear4(ball, x, y, z)
                             mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient,
                                                        radius * bs, b1, b2, b3)
@@ -330,11 +454,31 @@ def raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, 
     out_alpha[j, i] = 1.0 - T
 
 
+@scalar
+def row_stride(n):
+    """A stride coprime with ``n`` near ``0.618·n``: rows ``(q·stride) mod n`` for q = 0 … n−1 visit
+    every row once, and any run of consecutive q spreads over the whole range."""
+    s = max(1, int(0.6180339887498949 * n))
+    while True:
+        a = s
+        b = n
+        while b:
+            a, b = b, a % b
+        if a == 1:
+            return s
+        s += 1
+
+
 @driver
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """CPU driver: rows [row0, row1) of the image, one :func:`raycast_pixel` per pixel; the scene
-    in the records of :mod:`.records`."""
+    in the records of :mod:`.records`. The rows are visited in a golden-ratio stride order
+    (:func:`row_stride`): ``prange`` hands each thread one contiguous run of iterations, which
+    would otherwise be one band of the image (all of the volume, or none of it)."""
     W = out_alpha.shape[1]
-    for j in prange(row0, row1):
+    n = row1 - row0
+    stride = row_stride(n)
+    for q in prange(n):
+        j = row0 + (q * stride) % n
         for i in range(W):
             raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha)

@@ -117,13 +117,14 @@ class Optics:
 
 
 def _lookup(optics, s, col, ncomp):
-    """numpy version of the kernels' table lookup (linear interpolation, clamped)."""
-    n = optics.table.shape[0]
-    x = np.clip((s.astype(np.float64) - optics.lut_lo) * optics.lut_inv, 0.0, n - 1)
-    k0 = np.minimum(x.astype(np.int64), n - 2)
-    f = (x - k0)[..., None]
-    t = optics.table[:, col:col + ncomp].astype(np.float64)
-    return ((1 - f) * t[k0] + f * t[k0 + 1]).astype(np.float32)
+    """The kernels' table lookup (linear interpolation, clamped) of columns ``col … col + ncomp − 1``
+    at every sample of the 3-D scalar array ``s``: (nx, ny, nz, ncomp) float32, in parallel."""
+    from .._kernels.medium import classify_columns
+
+    out = np.empty(s.shape + (ncomp,), np.float32)
+    classify_columns(np.ascontiguousarray(s), optics.table, float(optics.lut_lo), float(optics.lut_inv), int(col),
+                     out)
+    return out
 
 
 def _digest(*arrays, extra="") -> str:

@@ -47,6 +47,9 @@ class SceneCache:
             raise TypeError(f"a scene-cache key is a tuple starting with the stage's name, got {key!r}")
         self._entries[key] = value
 
+    def __delitem__(self, key: tuple) -> None:
+        del self._entries[key]
+
     def __contains__(self, key) -> bool:
         return key in self._entries
 

@@ -57,12 +57,17 @@ ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
 
 #: Quality presets: what each sets when the knob is not given explicitly — ray step (smallest grid
 #: spacings), light-grid nodes per data spacing (None: the default of docs/ambient_scattering.rst §3,
-#: 2 where max σt·h > 0.3 else 1), preintegrated-table effort, and samples per pixel of
-#: ``path_traced``. Measured cost and error per preset: README, "Quality presets".
+#: 2 where max σt·h > 0.3 else 1), preintegrated-table effort, samples per pixel of
+#: ``path_traced``, and whether an isotropic phase function's direct light is baked on the light grid
+#: once per light change (``bake_lights``; docs/models.rst, "Baked in-scattering") rather than
+#: evaluated light by light at every sample. Measured cost and error per preset: README, "Quality presets".
 QUALITY_PRESETS = {
-    "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16},
-    "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64},
-    "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256},
+    "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16,
+                "bake_lights": True},
+    "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64,
+                 "bake_lights": True},
+    "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256,
+                 "bake_lights": False},
 }
 QUALITIES = tuple(QUALITY_PRESETS)
 DEFAULT_QUALITY = "balanced"

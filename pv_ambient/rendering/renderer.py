@@ -306,7 +306,8 @@ class Renderer(SceneStages):
             early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
             ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
             radius=self._radius(radius, model), t_end=check_ray_end(ray_end, size), light_resolution=light_resolution,
-            table_quality=table_quality, propagation=propagation, progress_bar=bool(progress_bar), asked=asked,
+            table_quality=table_quality, propagation=propagation, bake_lights=bool(preset["bake_lights"]),
+            progress_bar=bool(progress_bar), asked=asked,
             backend=resolve_backend(asked), time_budget=budget, options=dict(model_options), explicit=explicit)
 
     def render_request(self, req: "RenderRequest") -> RenderResult:
@@ -346,18 +347,27 @@ class Renderer(SceneStages):
                                   progress_bar=progress_bar, backend=backend)
         seed, bg, ert, amb, t_end, jitter, asked = (req.seed, req.background, req.early_termination,
                                                     req.ambient_radiance, req.t_end, req.jitter, req.asked)
+        d2min = (0.25 * step) ** 2
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
             tau = np.stack(taus, axis=-1) if taus else K.NONE4
             lg = grid if grid is not None else NO_GRID
+            lrec = K.lights_of(pack_lights(lights), ph, d2min)
+            grec = K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi, K.NONE4, 0)
+            arec = K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog)
+            # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
+            if req.bake_lights and lights and ph.canonical()[2]:
+                tkey = self._table_key(ph, radius, req.table_quality) if model == "ambient_scattering" else None
+                inc = self.incident(MODEL_IDS[model], lights, grid, (lrec, grec, arec),
+                                    (model, d2min, radius, tkey, req.propagation, ph.canonical()))
+                grec = grec._replace(inc=inc[0], baked=inc[1])
+            t_prep = time.perf_counter() - t_start
             # the kernel's records (pv_ambient._kernels.records), after the model id
             args = (MODEL_IDS[model],
                     K.view_of(cam, size, self.geometry),
                     K.March(step, bool(jitter), seed, ert, bg, t_end),
                     K.medium_of(self.optics, self.majorant(), MAJORANT_BLOCK),
-                    K.lights_of(pack_lights(lights), ph, (0.25 * step) ** 2),
-                    K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi),
-                    K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog),
+                    lrec, grec, arec,
                     K.Diffusion(diff, float(ph.mean_cosine)))
             backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
                                   device_cache=self.device_cache if backend == "cuda" else None,
@@ -369,6 +379,7 @@ class Renderer(SceneStages):
                 "device_memory": self._device.nbytes if backend == "cuda" else 0,
                 "lights": len(lights), "radius": radius, "phase": repr(ph),
                 "propagation": req.propagation if model == "ambient_scattering" else None,
+                "baked_lights": bool(req.bake_lights and lights and ph.canonical()[2]),
                 "flux_limited": bool(model_options.get("flux_limited", False)) if model == "diffusion" else None,
                 "diffusion_solver": getattr(self, "_diffusion_info", None) if model == "diffusion" else None,
                 "light_grid": None if grid is None else grid.shape,

@@ -34,6 +34,7 @@ class RenderRequest:
     light_resolution: float | None
     table_quality: str
     propagation: str
+    bake_lights: bool
     progress_bar: bool
     asked: str
     backend: str

@@ -74,17 +74,51 @@ class SceneStages:
             self.timings[f"light volume {light}"] = time.perf_counter() - t
         return self.cache[key]
 
+    def incident(self, model_id, lights, grid, records, key):
+        """The baked in-scattered light of ``lights`` per unit albedo at the nodes of ``grid`` for an
+        isotropic phase function, ``(array, nch)``: float32 (m0, m1, m2, slots·nch), a slot per point
+        light (times d²) and one for the directional lights, ``nch`` 1 when every channel is equal,
+        else 3 (:func:`pv_ambient._kernels.raycast.bake_incident`): single scattering's direct light,
+        plus ambient scattering's ball term. ``records`` are the kernel's Lights, LightGrid and
+        Ambient records; ``key`` what else they depend on (model, step's d² clamp, radius, table,
+        propagation). A camera move reads it instead of evaluating every light per sample; a
+        relight rebakes it from the cached light volumes (one pass over the light grid)."""
+        from .._kernels.raycast import bake_incident
+
+        key = ("incident", tuple(lights), grid.key()) + tuple(key)
+        if key not in self.cache:
+            t = time.perf_counter()
+            lrec, grec, arec = records
+            power = lrec.power
+            ball = arec.ball
+            grey = bool(np.all(power[:, 0:1] == power)) and (ball.shape[3] < 4 or bool(
+                np.array_equal(ball[..., 1], ball[..., 2]) and np.array_equal(ball[..., 1], ball[..., 3])))
+            nch = 1 if grey else 3
+            # a slot per point light, one for all directional lights
+            slots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0))
+            out = np.zeros(tuple(grid.shape) + (slots * nch,), np.float32)
+            geo = self.geometry
+            bake_incident(model_id, lrec, grec, arec, geo.world_to_index, geo.index_to_world, grid.lo, grid.step,
+                          nch, out)
+            for old in [k for k in self.cache.keys("incident") if k[2:] == key[2:]]:
+                del self.cache[old]  # one baked set per grid and options: a relight replaces it
+            self.cache[key] = (out, nch)
+            self.timings["baked in-scattering"] = time.perf_counter() - t
+        return self.cache[key]
+
     def _scattering_nodes(self, grid):
-        """Light-grid node indices (nearest node) of the data samples that scatter (σt·albedo > 0)."""
+        """The light-grid nodes nearest to a data sample that scatters (σt·albedo > 0): a boolean
+        array of the grid's shape (cached)."""
         key = ("scattering_nodes", grid.key())
         if key not in self.cache:
-            sig = self.optics.sigma_grid()
-            alb = self.optics.albedo_grid()
-            mask = (sig > 0) & (alb.max(axis=-1) > 0)
-            idx = np.nonzero(mask)
-            nodes = tuple(np.clip(np.rint((i - grid.lo[a]) * grid.inv_step[a]).astype(np.intp), 0, grid.shape[a] - 1)
-                          for a, i in enumerate(idx))
-            self.cache[key] = nodes
+            from .._kernels.medium import scattering_nodes
+
+            o = self.optics
+            node = [np.clip(np.rint((np.arange(n) - grid.lo[a]) * grid.inv_step[a]).astype(np.intp), 0,
+                            grid.shape[a] - 1) for a, n in enumerate(o.field.shape)]
+            mask = np.zeros(tuple(grid.shape), np.bool_)
+            scattering_nodes(o.mode, o.field, o.table, float(o.lut_lo), float(o.lut_inv), o.aux, *node, mask)
+            self.cache[key] = mask
         return self.cache[key]
 
     def active_lights(self, grid, backend="cpu"):
@@ -92,7 +126,7 @@ class SceneStages:
         ``TAU_OPAQUE`` at some sample that scatters (σt·albedo > 0)."""
         out = []
         nodes = self._scattering_nodes(grid)
-        if nodes[0].size == 0:
+        if not nodes.any():
             return ()
         for lt in self.lights:
             if max(lt.power) <= 0.0:
