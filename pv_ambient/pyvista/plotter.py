@@ -6,6 +6,7 @@ traced picture while the camera rests.
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 
@@ -13,7 +14,7 @@ import numpy as np
 import pyvista as pv
 
 from ..inputs.camera import Camera
-from ..inputs.validation import check_int, check_window_size
+from ..inputs.validation import check_int, check_real, check_window_size
 from ..rendering.presets import DEFAULT_SPP
 from ..rendering.renderer import Renderer
 from ..rendering.result import RenderResult
@@ -21,6 +22,11 @@ from ..stages.reference import Accumulator
 from .display import DISPLAY_KEYS
 from .geometry import GeometryPass, composite_over_geometry, ray_distance_from_depth
 from .plane import add_result_plane, write_texture
+
+
+#: A render window asking for at least this many frames per second is drawing an interactive frame
+#: (a camera drag): VTK's interactors ask for 15 during a drag and 0.0001 when the camera rests.
+MOVING_RATE = 1.0
 
 
 def _is_plane(actor):
@@ -92,7 +98,8 @@ class AmbientVolume:
     """
 
     def __init__(self, plotter, renderer, *, model="emission_absorption", display=None, options=None, occlusion=True,
-                 window_size=None, interactive_samples=4, refine_interval=100, interactive=False):
+                 window_size=None, interactive_samples=4, refine_interval=100, interactive=False,
+                 interactive_resolution=0.5):
         self.plotter = plotter
         self.vtk_renderer = plotter.renderer
         self.renderer = renderer
@@ -104,6 +111,7 @@ class AmbientVolume:
         self.interactive_samples = interactive_samples
         self.refine_interval = refine_interval
         self.interactive = bool(interactive)
+        self.interactive_resolution = float(interactive_resolution)
         self.actor = None
         self.result = None
         self.volume_result = None
@@ -128,14 +136,27 @@ class AmbientVolume:
                 f"occluders={len(self.occluders)}, interactive={self.observer is not None})")
 
     # -- the view and the scene ----------------------------------------------------------------
+    @property
+    def moving(self) -> bool:
+        """Whether the camera is being moved: in interactive mode, while the render window asks
+        for an interactive frame rate (``GetDesiredUpdateRate() >= MOVING_RATE``; VTK's
+        interactors ask for 15 fps during a drag and 0.0001 at rest), as VTK's own mappers decide."""
+        ren_win = self.plotter.ren_win
+        return self.interactive and ren_win is not None and ren_win.GetDesiredUpdateRate() >= MOVING_RATE
+
     def _view(self):
         ren = self.vtk_renderer
         cam = Camera.from_vtk(ren.GetActiveCamera())
         if self.window_size is not None:
-            return cam, self.window_size
-        x0, y0, x1, y1 = ren.GetViewport()
-        w, h = self.plotter.window_size
-        return cam, (max(1, int(round((x1 - x0) * w))), max(1, int(round((y1 - y0) * h))))
+            size = self.window_size
+        else:
+            x0, y0, x1, y1 = ren.GetViewport()
+            w, h = self.plotter.window_size
+            size = (max(1, int(round((x1 - x0) * w))), max(1, int(round((y1 - y0) * h))))
+        if self.moving:  # reduced resolution while the camera moves: the full one when it rests
+            f = self.interactive_resolution
+            size = (max(1, math.ceil(size[0] * f)), max(1, math.ceil(size[1] * f)))
+        return cam, size
 
     def _scan(self):
         """The opaque meshes of the renderer (hiding newly added ones)."""
@@ -336,7 +357,7 @@ class AmbientVolume:
 
 def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", transfer_function=None, lights=(),
                        scalars=None, display=None, interactive=False, occlusion=True, renderer=None,
-                       interactive_samples=4, refine_interval=100, **render_options):
+                       interactive_samples=4, refine_interval=100, interactive_resolution=0.5, **render_options):
     """Render ``grid`` with the plotter's camera and window size and show it in the plotter, in
     front of or behind the plotter's opaque meshes.
 
@@ -382,7 +403,10 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         and while the camera rests a repeating timer on the plotter's interactor (once it is
         shown) adds as many again every ``refine_interval`` ms, averaging, up to
         ``samples_per_pixel`` (or ``target_error``); without an event loop (off-screen) call
-        :meth:`AmbientVolume.refine` yourself.
+        :meth:`AmbientVolume.refine` yourself. While the camera is being dragged (the render window
+        asks for an interactive frame rate, :attr:`AmbientVolume.moving`) the picture is rendered
+        at ``interactive_resolution`` of the window per axis; the frame drawn when the camera rests
+        is the full-resolution render.
     occlusion : bool, default: True
         Let the plotter's opaque meshes occlude the volume (above). False leaves them alone
         (the plane then hides whatever lies behind the focal plane).
@@ -393,6 +417,9 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         Path tracing in interactive mode: samples per pixel per pass (≥ 2).
     refine_interval : int, default: 100
         Path tracing in interactive mode: milliseconds between refinement passes.
+    interactive_resolution : float, default: 0.5
+        Interactive mode: the picture's resolution per axis while the camera moves, as a fraction
+        of the window's, in [0.5, 1] (1: always full resolution).
     **render_options
         As :meth:`pv_ambient.Renderer.render` (``background`` is the radiance where there is
         neither volume nor geometry).
@@ -448,6 +475,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         raise TypeError(f"display has unknown keys {sorted(unknown)}; allowed: {list(DISPLAY_KEYS)}")
     interactive_samples = check_int(interactive_samples, "interactive_samples", lo=2)
     refine_interval = check_int(refine_interval, "refine_interval", lo=1)
+    interactive_resolution = check_real(interactive_resolution, "interactive_resolution", lo=0.5, hi=1.0)
     window_size = render_options.pop("window_size", None)
     if window_size is not None:
         window_size = check_window_size(window_size)
@@ -458,7 +486,8 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         plotter.camera_set = True
     vol = AmbientVolume(plotter, renderer, model=model, display=display, options=render_options,
                         occlusion=occlusion, window_size=window_size, interactive_samples=interactive_samples,
-                        refine_interval=refine_interval, interactive=interactive)
+                        refine_interval=refine_interval, interactive=interactive,
+                        interactive_resolution=interactive_resolution)
     try:
         vol.update(force=True)
     except BaseException:

@@ -1,0 +1,78 @@
+"""Interactive mode while the camera is dragged: reduced resolution (never below half the window per
+axis), the full-resolution render when the camera rests (issue 16's drag mode)."""
+
+import os
+
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import pyvista as pv  # noqa: E402
+
+import pv_ambient as pa  # noqa: E402
+from pv_ambient import datasets  # noqa: E402
+from pv_ambient.pyvista.plane import texture_image  # noqa: E402
+
+SIZE = (63, 47)  # odd sizes: the reduced size rounds up
+CAMERA = pa.Camera((2.5, -3.5, 1.5), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=30.0)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    grid = datasets.cloud(n=24)
+    tf = pa.TransferFunction(**datasets.suggested_style("cloud"), albedo=0.9)
+    return grid, tf, [pa.PointLight((1.0, -1.5, 1.2), intensity=4.0)]
+
+
+def _plotter():
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    CAMERA.to_vtk(pl.camera)
+    pl.camera_set = True
+    return pl
+
+
+@pytest.mark.parametrize("model,fraction", [("single_scattering", 0.5), ("ambient_scattering", 0.75)])
+def test_drag_renders_reduced_and_the_resting_frame_is_a_normal_render(scene, model, fraction):
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model=model, interactive=True,
+                                interactive_resolution=fraction)
+    assert vol.result.window_size == SIZE and not vol.moving
+    win = pl.ren_win
+    win.SetDesiredUpdateRate(15.0)  # what VTK's interactor asks for during a drag
+    for k in range(3):
+        pl.camera.Azimuth(7.0)
+        win.Render()
+        assert vol.moving and vol.renders == 2 + k
+        w, h = vol.result.window_size
+        assert (w, h) == (int(np.ceil(SIZE[0] * fraction)), int(np.ceil(SIZE[1] * fraction)))
+        assert 2 * w >= SIZE[0] and 2 * h >= SIZE[1]  # never below half the window per axis
+    win.SetDesiredUpdateRate(0.0001)  # the camera rests: the interactor's still rate
+    win.Render()
+    assert not vol.moving and vol.renders == 5 and vol.result.window_size == SIZE
+    ref = pa.render(grid, transfer_function=tf, lights=lights, model=model, camera=pl.camera, window_size=SIZE)
+    assert np.array_equal(vol.result.radiance, ref.radiance)
+    assert np.array_equal(texture_image(vol.actor.GetTexture()), ref.to_uint8())
+    win.Render()
+    assert vol.renders == 5  # at rest nothing changes: no re-render
+    pl.close()
+
+
+def test_not_interactive_ignores_the_rate(scene):
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf)
+    pl.ren_win.SetDesiredUpdateRate(15.0)
+    assert not vol.moving
+    vol.update(force=True)
+    assert vol.result.window_size == SIZE
+    pl.close()
+
+
+@pytest.mark.parametrize("bad", [0.49, 1.5, 0.0])
+def test_interactive_resolution_is_checked(scene, bad):
+    grid, tf, lights = scene
+    pl = _plotter()
+    with pytest.raises(ValueError, match="interactive_resolution"):
+        pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, interactive_resolution=bad)
+    pl.close()
