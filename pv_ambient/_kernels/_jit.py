@@ -34,13 +34,21 @@ _SCALARS = {}  # py_func -> CPU dispatcher of every scalar function
 _CUDA = {}  # py_func -> CUDA device function (built on first use)
 
 
-def scalar(fn):
+def scalar(fn=None, *, inline=False):
     """Compile a scalar (per-ray / per-voxel / per-path) function for the CPU target.
 
-    The returned dispatcher is also registered for :func:`cuda_device`."""
-    disp = numba.njit(**_COMMON)(fn)
-    _SCALARS[fn] = disp
-    return disp
+    ``inline=True`` inlines it into its callers at Numba's IR level (``inline="always"``): for the
+    small functions of the per-sample path (interpolation, classification, the baked lookup), which
+    LLVM does not always inline across dispatchers — measured 27 % of an emission–absorption
+    frame. The returned dispatcher is also registered for :func:`cuda_device`."""
+
+    def wrap(f):
+        opts = dict(_COMMON, inline="always") if inline else _COMMON
+        disp = numba.njit(**opts)(f)
+        _SCALARS[f] = disp
+        return disp
+
+    return wrap(fn) if fn is not None else wrap
 
 
 def is_scalar(obj) -> bool:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ._jit import scalar
 
 
-@scalar
+@scalar(inline=True)
 def cell_coords(x, n):
     """Lower index, upper index and fraction of continuous coordinate ``x`` on ``n`` samples.
 
@@ -19,7 +19,7 @@ def cell_coords(x, n):
     return i0, i0 + 1, x - i0
 
 
-@scalar
+@scalar(inline=True)
 def trilinear(g, x, y, z):
     """Trilinear value of the 3D array ``g`` at index-space point (x, y, z)."""
     i0, i1, fx = cell_coords(x, g.shape[0])
@@ -34,7 +34,7 @@ def trilinear(g, x, y, z):
     return c0 + fz * (c1 - c0)
 
 
-@scalar
+@scalar(inline=True)
 def corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c):
     """Component ``c`` of the 4D array ``g`` interpolated between located corners (see
     :func:`cell_coords`): lets several components share one location."""
@@ -47,7 +47,7 @@ def corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c):
     return c0 + fz * (c1 - c0)
 
 
-@scalar
+@scalar(inline=True)
 def locate(g, x, y, z):
     """Corners and fractions of index-space point (x, y, z) in ``g`` (clamped, :func:`cell_coords`)."""
     i0, i1, fx = cell_coords(x, g.shape[0])
@@ -56,14 +56,14 @@ def locate(g, x, y, z):
     return i0, i1, fx, j0, j1, fy, k0, k1, fz
 
 
-@scalar
+@scalar(inline=True)
 def trilinear_c(g, x, y, z, c):
     """Trilinear value of component ``c`` of the 4D array ``g`` (nx, ny, nz, ncomp)."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(g, x, y, z)
     return corner_lerp(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c)
 
 
-@scalar
+@scalar(inline=True)
 def trilinear4(g, x, y, z):
     """Trilinear values of the four components of ``g`` (nx, ny, nz, 4), located once."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(g, x, y, z)

@@ -54,7 +54,7 @@ def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
                     out[a, b, c] = m
 
 
-@scalar
+@scalar(inline=True)
 def block_of(x, block, m):
     """Block index of continuous index coordinate ``x`` (clamped to [0, m−1])."""
     a = int(math.floor(x / block))
@@ -65,7 +65,7 @@ def block_of(x, block, m):
     return a
 
 
-@scalar
+@scalar(inline=True)
 def block_at(x, y, z, maj, block):
     """Block (a, b, c) of majorant grid ``maj`` that holds index-space point (x, y, z) (clamped)."""
     mx, my, mz = maj.shape

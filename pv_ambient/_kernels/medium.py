@@ -15,7 +15,7 @@ MODE_LUT = 0
 MODE_GRID = 1
 
 
-@scalar
+@scalar(inline=True)
 def lut_coords(s, lut_lo, lut_inv, n):
     """Entries (k0, k1) and fraction for scalar ``s`` in a table of ``n`` entries (clamped)."""
     x = (s - lut_lo) * lut_inv
@@ -27,12 +27,12 @@ def lut_coords(s, lut_lo, lut_inv, n):
     return k0, k0 + 1, x - k0
 
 
-@scalar
+@scalar(inline=True)
 def lut_value(table, k0, k1, f, col):
     return table[k0, col] + f * (table[k1, col] - table[k0, col])
 
 
-@scalar
+@scalar(inline=True)
 def sigma_at(mode, field, table, lut_lo, lut_inv, x, y, z):
     """Extinction σt at index-space point (x, y, z)."""
     s = trilinear(field, x, y, z)

@@ -43,7 +43,7 @@ PROP_BEER_LAMBERT = 0
 PROP_TUBE = 1
 
 
-@scalar
+@scalar(inline=True)
 def index_ray(w2i, ox, oy, oz, dx, dy, dz):
     """The world ray in sample index space: t stays the world distance along the ray."""
     px, py, pz = affine_point(w2i, ox, oy, oz)
@@ -51,7 +51,7 @@ def index_ray(w2i, ox, oy, oz, dx, dy, dz):
     return px, py, pz, qx, qy, qz
 
 
-@scalar
+@scalar(inline=True)
 def medium_sigma_color(medium, x, y, z):
     """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z) of ``medium`` (a
     :class:`.records.Medium`); (k0, k1, f) locate the table entries for
@@ -67,7 +67,7 @@ def medium_sigma_color(medium, x, y, z):
             lut_value(table, k0, k1, f, 9), k0, k1, f)
 
 
-@scalar
+@scalar(inline=True)
 def medium_albedo_emission(medium, k0, k1, f, x, y, z):
     """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color`."""
     mode, table, aux = medium.mode, medium.table, medium.aux
@@ -123,7 +123,7 @@ def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     return er * w, eg * w, eb * w
 
 
-@scalar
+@scalar(inline=True)
 def baked_light(x, y, z, wx, wy, wz, lights, grid):
     """The in-scattered light (rgb, per unit albedo) from the baked ``grid.inc``: per point light its
     smooth factor ``I_j (T_j p + Φ_j D_j)`` interpolated and divided by ``max(d_j², d2min)`` here, at
