@@ -396,10 +396,12 @@ def render_frame(spec: FrameSpec, index: int, volume, key: str, camera, out_dir:
     t0 = time.perf_counter()
     rec = {"index": index, "worker": _worker_name(), "pid": os.getpid(), "error": None, "reused": False,
            "times": {}}
+    threads = None
     try:
         if spec.numba_threads:
             import numba
 
+            threads = numba.get_num_threads()  # put back afterwards (this process may be the client)
             numba.set_num_threads(min(spec.numba_threads, numba.config.NUMBA_NUM_THREADS))
         r, reused, t_load, t_build = _renderer_for(spec, volume, key)
         t = time.perf_counter()
@@ -414,6 +416,11 @@ def render_frame(spec: FrameSpec, index: int, volume, key: str, camera, out_dir:
                           "render": t_render, "write": time.perf_counter() - t})
     except Exception as exc:  # noqa: BLE001 - the frame's error is reported, the others go on
         rec["error"] = f"{type(exc).__name__}: {exc}"
+    finally:
+        if threads is not None:
+            import numba
+
+            numba.set_num_threads(threads)
     rec["times"]["total"] = time.perf_counter() - t0
     return rec
 
@@ -516,7 +523,7 @@ def _remove_parts(out_dir: Path, run: str | None = None) -> None:
 def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera=None,
                   model="emission_absorption", cameras=None, client=None, scalars=None, component=None,
                   preference="point", nan_policy="raise", backend="auto", radiance=False, display=None,
-                  overwrite=False, movie=None, fps=10, workers=None, progress_bar=True,
+                  overwrite=False, movie=None, fps=10, workers=None, numba_threads=None, progress_bar=True,
                   **render_options) -> SeriesResult:
     """Render a time series or a camera orbit into ``out_dir``, one frame per file, on Dask.
 
@@ -549,6 +556,10 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
         ``fps`` frames per second, when every frame is there.
     workers : int, optional
         Processes of the ``LocalCluster`` that ``client=None`` starts (default: one per core).
+    numba_threads : int, optional
+        Numba threads of each worker (``numba.set_num_threads``): 1 on the ``LocalCluster`` that
+        ``client=None`` starts, the workers' own setting on an existing cluster or in this process
+        when None.
     progress_bar : bool, default: True
         One tqdm bar over the frames, as they complete.
     **render_options
@@ -609,6 +620,8 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
         _check_movie_support(movie)
         fps = check_real(fps, "fps", lo=0.0, lo_open=True)
     sync = isinstance(client, str) and client == "synchronous"
+    if numba_threads is not None:
+        numba_threads = check_int(numba_threads, "numba_threads", lo=1)
     run = uuid.uuid4().hex[:12]
     renderer_kwargs = {"transfer_function": as_transfer_function(transfer_function), "scalars": scalars,
                        "component": component, "lights": as_lights(lights), "preference": preference,
@@ -646,7 +659,7 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
     bar = tqdm(total=len(todo), desc="frames", unit="frame", disable=not progress_bar or not todo)
     try:
         if sync or not todo:
-            spec = FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance), None, run)
+            spec = FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance), numba_threads, run)
             try:
                 for i in todo:
                     record(render_frame(spec, i, vols[i], keys[i], cams[i], str(out)))
@@ -656,6 +669,7 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
                     _WORKER["renderers"].clear()  # this process keeps no volume after the call
         else:
             c, owned, n_workers, threads = _get_client(client, workers)
+            threads = threads if numba_threads is None else numba_threads
             try:
                 n_workers = _run_on_cluster(c, FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance),
                                                          threads, run),

@@ -310,7 +310,8 @@ def test_bad_volumes(tmp_path):
 
 def test_pvd_collection_in_time_order(steps, tmp_path):
     pvd = tmp_path / "run.pvd"
-    entries = "".join(f'<DataSet timestep="{t}" part="0" file="{steps[i]}"/>' for t, i in ((2.0, 2), (0.5, 0), (1.0, 1)))
+    entries = "".join(f'<DataSet timestep="{t}" part="0" file="{steps[i]}"/>'
+                      for t, i in ((2.0, 2), (0.5, 0), (1.0, 1)))
     pvd.write_text(f'<?xml version="1.0"?><VTKFile type="Collection"><Collection>{entries}</Collection></VTKFile>')
     res = render_series(str(pvd), out_dir=tmp_path / "out", client="synchronous", window_size=(12, 8),
                         radiance=True, progress_bar=False)
