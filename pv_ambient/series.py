@@ -845,7 +845,7 @@ def cli_series(args) -> int:
                                 out_dir=args.output, client=client, workers=args.workers, radiance=args.radiance,
                                 overwrite=args.overwrite, movie=args.movie, fps=args.fps,
                                 progress_bar=not args.no_progress)
-    except ImportError as exc:
+    except (ImportError, OSError) as exc:  # a missing extra, file or scheduler (OSError: no connection)
         print(f"pv-ambient: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -345,3 +345,19 @@ def test_movie(tmp_path, monkeypatch):
     assert png.std() > 10 and np.corrcoef(first.ravel(), png.ravel())[0, 1] > 0.95  # lossy, the same picture
     gif = render_series(grid, movie=tmp_path / "orbit.gif", **kw).movie
     assert len(imageio.mimread(gif)) == 4
+
+
+def test_cli_usage_errors_exit_2(steps, tmp_path, capsys):
+    sp = write_scene(tmp_path / "scene.json", scene_dict(steps[0], "emission_absorption"))
+    out = str(tmp_path / "out")
+    assert cli.main(["series", str(sp), "--volumes", str(tmp_path / "none_*.vti"), "-o", out,
+                     "--scheduler", "synchronous"]) == 2
+    assert "matched no file" in capsys.readouterr().err
+    assert cli.main(["series", str(sp), "--orbit", "3", "-o", out, "--scheduler", "synchronous",
+                     "--workers", "2"]) == 2
+    assert "--workers" in capsys.readouterr().err
+    assert cli.main(["series", str(sp), "--orbit", "0", "-o", out, "--scheduler", "synchronous"]) == 2
+    assert "n_frames" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # --volumes and --orbit exclude each other
+        cli.main(["series", str(sp), "--orbit", "3", "--volumes", "x*.vti", "-o", out])
+    assert not Path(out).exists()
