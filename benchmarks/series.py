@@ -129,7 +129,7 @@ def main(argv=None):
     cfg = {"tf": tf, "lights": LIGHTS, "camera": CAMERA, "model": args.model, "size": args.size, "files": files}
     say(f"cloud {args.n}³ × {args.frames} time steps (.vti, {os.path.getsize(files[0]) / 2**20:.1f} MB each), "
         f"{args.model}, {args.size}x{args.size}, one point light; read + render + PNG per frame; "
-        f"{os.cpu_count()} cores")
+        f"{os.cpu_count()} cores; load average at the start {os.getloadavg()[0]:.2f}")
     say()
     rows = {}
     for name, threads in (("a", 1), ("b", None)):
@@ -213,6 +213,7 @@ def main(argv=None):
     say(f"  camera move of one Renderer in one process, 1 thread   {move:.4f} s")
     say(f"  ratio render / camera move = {r_render / move:.2f}; whole frame / camera move = {r_total / move:.2f}"
         f"  (target ≤ 1.5: {'met' if r_total / move <= 1.5 else 'NOT met'} for the whole frame)")
+    say(f"load average at the end {os.getloadavg()[0]:.2f} (other processes on the machine distort every row)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "series.txt").write_text("\n".join(lines) + "\n")
