@@ -1,5 +1,6 @@
 # pv_ambient — the two commands of the README's quick start: `make demo` and `make test`.
-# Each creates .venv if it is missing and installs the package with its extras first (test, and mri:
+# Each creates .venv if it is missing and installs the package with its extras first (test; distributed:
+# dask.distributed for render_series and `pv-ambient series`; and mri:
 # nilearn, whose wheel holds the MNI152 template of the MRI gallery example; every example runs in make test).
 PYTHON ?= python3
 VENV   := .venv
@@ -17,7 +18,7 @@ $(PY):
 	$(PY) -m pip install --upgrade pip
 
 $(STAMP): $(PY) pyproject.toml
-	$(PY) -m pip install -e ".[test,mri]"
+	$(PY) -m pip install -e ".[test,mri,distributed]"
 	touch $(STAMP)
 
 install: $(STAMP)

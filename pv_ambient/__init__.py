@@ -12,8 +12,10 @@ from .inputs.lights import DirectionalLight, PointLight
 from .rendering.renderer import Renderer, render
 from .rendering.result import RenderResult
 from .inputs.transfer import TransferFunction
+from .series import orbit, render_series
 
-__all__ = ["Camera", "DirectionalLight", "PointLight", "Renderer", "RenderResult", "TransferFunction", "render"]
+__all__ = ["Camera", "DirectionalLight", "PointLight", "Renderer", "RenderResult", "TransferFunction", "orbit", "render",
+           "render_series"]
 
 try:  # the pyvista layer is optional for the array core
     from .pyvista import add_ambient_volume, compare  # also registers grid.ambient

@@ -139,6 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
                                      "'bench --backend cuda'); extra arguments go to it")
     b.add_argument("rest", nargs=argparse.REMAINDER)
     b.set_defaults(func=_cmd_bench)
+    from .series import add_cli_parser  # pv-ambient series: time series and orbits (pv_ambient.series)
+    add_cli_parser(sub)
     return p
 
 

@@ -21,7 +21,7 @@ ROOT = PKG.parent
 #: Layer of each part of the package, lowest first; a module may import only its own layer or below.
 LAYERS = [
     ("_kernels", 0), ("backend", 1), ("inputs", 2), ("datasets", 2), ("metrics", 2), ("stages", 3),
-    ("rendering", 4), ("pyvista", 5), ("scene", 5), ("cli", 5), ("preintegration", 5), ("", 6),
+    ("rendering", 4), ("pyvista", 5), ("scene", 5), ("cli", 5), ("series", 5), ("preintegration", 5), ("", 6),
 ]
 #: Parts that form the array core: no pyvista, no vtk (they run where only numpy and numba exist).
 #: ``rendering`` may convert a result to a PyVista object inside a method (``RenderResult.to_plane``),

@@ -36,7 +36,8 @@ def test_examples_found():
     assert len(EXAMPLES) >= 6
     assert {"synthetic_datasets.py", "cloud_phase_sweep.py", "figure1_supernova.py",
             "directional_single_vs_ambient.py", "tf_from_add_volume.py", "ct_two_coloured_lights.py",
-            "ambient_vs_path_traced.py", "mri_mni152.py"} <= names
+            "ambient_vs_path_traced.py", "mri_mni152.py",
+            "time_series_and_orbit.py"} <= names
     for folder in {p.parent for p in EXAMPLES}:
         assert (folder / "README.txt").is_file(), f"{folder} has no README.txt (sphinx-gallery section header)"
 
