@@ -125,3 +125,18 @@ def test_when_baking_applies():
     assert not r.render(model="single_scattering", phase=0.5, **kw).metadata["baked_lights"]  # anisotropic
     assert not r.render(model="emission_absorption", **kw).metadata["baked_lights"]
     assert not renderer(lights=()).render(model="single_scattering", **kw).metadata["baked_lights"]
+
+
+def test_diffusion_folded_into_the_bake_equals_its_per_sample_lookup(monkeypatch):
+    # light grid = data samples: diffusion's φ/4π joins the baked slot (the march is then single
+    # scattering's); trilinear interpolation is linear, so the image equals reading φ per sample
+    # on top of the baked direct light, up to float32 rounding
+    from pv_ambient.stages.propagation import LightGrid
+
+    r = renderer(physical_grid(sigma=1.5))  # optically thin cells: the light grid is the data grid
+    assert r.light_grid().on_samples(r.optics.field.shape)
+    folded = render(r, "diffusion", True).radiance.astype(np.float64)
+    monkeypatch.setattr(LightGrid, "on_samples", lambda self, shape: False)
+    separate = render(renderer(physical_grid(sigma=1.5)), "diffusion", True).radiance.astype(np.float64)
+    assert folded.max() > 0
+    assert np.abs(folded - separate).max() <= 1e-5 * separate.max()

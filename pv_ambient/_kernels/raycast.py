@@ -169,7 +169,7 @@ def baked_light(x, y, z, wx, wy, wz, lights, grid):
 
 
 @scalar
-def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, i, j, k, out):
+def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, i, j, k, out):
     """Node (i, j, k) of the baked in-scattered light (:func:`bake_incident`)."""
     x = lo[0] + i * step[0]
     y = lo[1] + j * step[1]
@@ -215,22 +215,29 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, i, j, k, ou
         if nch == 3:
             out[i, j, k, q + 1] += sg
             out[i, j, k, q + 2] += sb
+    if with_diff:  # diffusion's φ/4π at this data sample (isotropic phase), in the last slot
+        q = (out.shape[3] // nch - 1) * nch
+        nd = diff.shape[3] // 4
+        for c in range(nch):
+            out[i, j, k, q + c] += max(diff[i, j, k, 4 * min(c, nd - 1)], 0.0) * INV_4PI_RC
 
 
 @driver
-def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, out):
+def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, out):
     """The in-scattered light per unit albedo at every light-grid node for an isotropic phase
     function (view-independent): per light ``E_j T_j p`` (single scattering and diffusion's direct
     part) plus, for ambient scattering, ``E_j Φ_j D(r σ̄, ā)`` (D has no angle then). A point light
     gets a slot of its own holding that times ``max(d_j², d2min)`` (smooth: :func:`baked_light`
     divides by d² at the sample); the directional lights share the last slot. Node (i, j, k) sits at
     data index ``lo + (i, j, k)·step``; ``w2i``/``i2w`` map world ↔ index. ``nch`` channels per slot:
-    1 when every channel is equal (the red one is kept), else 3; ``out`` is (m0, m1, m2, slots·nch)."""
+    1 when every channel is equal (the red one is kept), else 3; ``out`` is (m0, m1, m2, slots·nch).
+    With ``with_diff`` the nodes are the data samples and diffusion's ``max(φ_c, 0)/4π`` (``diff``:
+    (nx, ny, nz, 4) grey or 12 per channel, :func:`diffusion_light`'s field) joins the last slot."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
     for k in prange(m2):
         for j in range(m1):
             for i in range(m0):
-                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, i, j, k, out)
+                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, i, j, k, out)
 
 
 @scalar

@@ -355,15 +355,23 @@ class Renderer(SceneStages):
             lrec = K.lights_of(pack_lights(lights), ph, d2min)
             grec = K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi, K.NONE4, 0)
             arec = K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog)
+            kernel_model = MODEL_IDS[model]
             # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
             if req.bake_lights and lights and ph.canonical()[2]:
                 tkey = self._table_key(ph, radius, req.table_quality) if model == "ambient_scattering" else None
+                # diffusion's φ/4π joins the bake where the light-grid nodes are the data samples
+                # (then exactly: trilinear interpolation is linear); the march is single scattering's
+                fold = model == "diffusion" and grid.on_samples(self.optics.field.shape)
+                dkey = (bool(model_options.get("flux_limited", False)), fold) if model == "diffusion" else None
                 inc = self.incident(MODEL_IDS[model], lights, grid, (lrec, grec, arec),
-                                    (model, d2min, radius, tkey, req.propagation, ph.canonical()))
+                                    (model, d2min, radius, tkey, req.propagation, ph.canonical(), dkey),
+                                    diffusion=diff if fold else None)
                 grec = grec._replace(inc=inc[0], baked=inc[1])
+                if fold:
+                    kernel_model = MODEL_IDS["single_scattering"]
             t_prep = time.perf_counter() - t_start
             # the kernel's records (pv_ambient._kernels.records), after the model id
-            args = (MODEL_IDS[model],
+            args = (kernel_model,
                     K.view_of(cam, size, self.geometry),
                     K.March(step, bool(jitter), seed, ert, bg, t_end),
                     K.medium_of(self.optics, self.majorant(), MAJORANT_BLOCK),

@@ -74,7 +74,7 @@ class SceneStages:
             self.timings[f"light volume {light}"] = time.perf_counter() - t
         return self.cache[key]
 
-    def incident(self, model_id, lights, grid, records, key):
+    def incident(self, model_id, lights, grid, records, key, diffusion=None):
         """The baked in-scattered light of ``lights`` per unit albedo at the nodes of ``grid`` for an
         isotropic phase function, ``(array, nch)``: float32 (m0, m1, m2, slots·nch), a slot per point
         light (times d²) and one for the directional lights, ``nch`` 1 when every channel is equal,
@@ -82,7 +82,9 @@ class SceneStages:
         plus ambient scattering's ball term. ``records`` are the kernel's Lights, LightGrid and
         Ambient records; ``key`` what else they depend on (model, step's d² clamp, radius, table,
         propagation). A camera move reads it instead of evaluating every light per sample; a
-        relight rebakes it from the cached light volumes (one pass over the light grid)."""
+        relight rebakes it from the cached light volumes (one pass over the light grid).
+        ``diffusion``: a diffusion solution (:meth:`diffusion`) on the data samples, which must be
+        the light-grid nodes (``grid.on_samples``), to add as ``max(φ, 0)/4π`` (isotropic phase)."""
         from .._kernels.raycast import bake_incident
 
         key = ("incident", tuple(lights), grid.key()) + tuple(key)
@@ -93,13 +95,16 @@ class SceneStages:
             ball = arec.ball
             grey = bool(np.all(power[:, 0:1] == power)) and (ball.shape[3] < 4 or bool(
                 np.array_equal(ball[..., 1], ball[..., 2]) and np.array_equal(ball[..., 1], ball[..., 3])))
+            diff = K.NONE12 if diffusion is None else diffusion
+            if diffusion is not None and diff.shape[3] == 12:
+                grey = False  # coloured diffusion solution
             nch = 1 if grey else 3
-            # a slot per point light, one for all directional lights
-            slots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0))
+            # a slot per point light, one for all directional lights (and the diffusion term)
+            slots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
             out = np.zeros(tuple(grid.shape) + (slots * nch,), np.float32)
             geo = self.geometry
             bake_incident(model_id, lrec, grec, arec, geo.world_to_index, geo.index_to_world, grid.lo, grid.step,
-                          nch, out)
+                          nch, diff, diffusion is not None, out)
             for old in [k for k in self.cache.keys("incident") if k[2:] == key[2:]]:
                 del self.cache[old]  # one baked set per grid and options: a relight replaces it
             self.cache[key] = (out, nch)

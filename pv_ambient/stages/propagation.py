@@ -47,6 +47,12 @@ class LightGrid:
     def key(self):
         return (self.shape, self.lo.tobytes(), self.step.tobytes())
 
+    def on_samples(self, shape) -> bool:
+        """Whether the nodes are exactly the data samples of a grid of ``shape`` (node k = sample k)."""
+        one = np.asarray(self.shape) == 1
+        return (tuple(self.shape) == tuple(shape) and bool(np.all(self.lo == 0.0))
+                and bool(np.all((self.step == 1.0) | one)))
+
     def to_light(self, data_index):
         return (np.asarray(data_index, np.float64) - self.lo) * self.inv_step
 
