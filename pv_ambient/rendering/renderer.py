@@ -12,16 +12,17 @@ from __future__ import annotations
 
 import copy
 import time
+import warnings
 
 import numpy as np
 
 from ..backend import BACKENDS, resolve_backend, run_raycast
 from ..inputs.camera import as_camera
 from ..inputs.grid import Volume, volume_from_image
-from ..inputs.lights import as_lights, pack_lights
+from ..inputs.lights import as_lights, needs_camera, pack_lights
 from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
-from ..inputs.validation import check_choice, check_int, check_real, check_rgb
+from ..inputs.validation import check_choice, check_int, check_real, check_rgb, check_window_size
 from ..stages.reference import RR_DEPTH
 from .cache import SceneCache
 from .presets import (
@@ -39,7 +40,7 @@ from .presets import (
     QUALITY_PRESETS,
     step_for,
 )
-from .request import RenderRequest, check_ray_end
+from .request import RenderRequest, check_image_memory, check_ray_end, given_options, warn_black, warn_unused_lights, warn_unused_options
 from .result import RenderResult
 from .stages import NO_GRID, SceneStages
 
@@ -60,7 +61,11 @@ class Renderer(SceneStages):
         Array to classify (the active scalars when None).
     component : int, optional
         Component of a multi-component array (magnitude when None).
-    lights : sequence of PointLight, DirectionalLight or dict, optional
+    lights : sequence of PointLight, DirectionalLight, pyvista.Light or dict, optional
+        None (not given): the lit models get the default light rig (docs/lights.rst), placed
+        from the camera of the first lit render and kept (a camera move does not relight);
+        ``()``: no light (lit models render black, with a warning). ``lights`` holds the
+        lights in use (empty until a rig or a pyvista head/camera light is placed).
     preference : {"point", "cell"}, default: "point"
         Which data to use when both exist.
     nan_policy : {"raise", "vacuum"}, default: "raise"
@@ -76,7 +81,7 @@ class Renderer(SceneStages):
     (24, 32, 3)
     """
 
-    def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=(),
+    def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=None,
                  preference="point", nan_policy="raise", backend="auto"):
         check_choice(preference, "preference", ("point", "cell"))
         check_choice(backend, "backend", BACKENDS)
@@ -87,7 +92,7 @@ class Renderer(SceneStages):
         self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
                                                      nan_policy=nan_policy)
         self.timings = {"classify": time.perf_counter() - t}
-        self.lights = as_lights(lights)
+        self.set_lights(lights)
         self.cache = SceneCache()
         self._device = None  # backend.DeviceCache once the CUDA backend has run
 
@@ -130,8 +135,23 @@ class Renderer(SceneStages):
         return step_for(quality, np.min(self.geometry.spacing))
 
     def set_lights(self, lights):
-        """Replace the lights; cached volumes of lights that stay are kept (a relight)."""
-        self.lights = as_lights(lights)
+        """Replace the lights; cached volumes of lights that stay are kept (a relight). None: the
+        default rig, placed at the next lit render from its camera (as pyvista head and camera
+        lights are)."""
+        center = np.reshape(np.asarray(self.bounds, dtype=float), (3, 2)).mean(axis=1)
+        self._lights_pending = lights if needs_camera(lights) else None
+        self.light_rig = "default" if lights is None else "given"
+        self.lights = () if self._lights_pending is not None or lights is None else as_lights(lights, center=center)
+
+    def place_lights(self, camera):
+        """Place lights that wait for a camera (the default rig, pyvista head/camera lights) with
+        ``camera``, once; returns :attr:`lights`. Every lit render calls it with its camera."""
+        if getattr(self, "_lights_pending", None) is not None or (self.light_rig == "default" and not self.lights):
+            center = np.reshape(np.asarray(self.bounds, dtype=float), (3, 2)).mean(axis=1)
+            spec = None if self.light_rig == "default" else self._lights_pending
+            self.lights = as_lights(spec, center=center, camera=camera)
+            self._lights_pending = None
+        return self.lights
 
     def choose_model(self, request) -> tuple:
         """The model a request renders and the options the choice adds: ``auto``'s rules (listed in
@@ -165,17 +185,31 @@ class Renderer(SceneStages):
 
         Parameters
         ----------
-        camera : Camera, pyvista.Camera, pyvista.Plotter, dict or list, optional
-            PyVista's default isometric view of the volume when None.
+        camera : Camera, pyvista.Camera, pyvista.Plotter, dict, list or str, optional
+            PyVista's default isometric view of the volume when None; ``"iso"``, ``"xy"``,
+            ``"xz"``, ``"yz"``, ``"yx"``, ``"zx"``, ``"zy"`` as ``Plotter.camera_position``.
         window_size : (int, int), optional
-            ``(width, height)``; the plotter's when a plotter is given, else (512, 512).
+            ``(width, height)``; the plotter's when a plotter is given, else (512, 512). A size
+            whose buffers would not fit in the available memory is a ``MemoryError`` before
+            any work.
         model : str, default: "emission_absorption"
-            ``"emission_absorption"``, ``"ambient_occlusion"``, ``"single_scattering"``,
-            ``"ambient_scattering"``, ``"path_traced"`` (the Monte Carlo reference,
-            :func:`pv_ambient.stages.reference.path_trace`; options ``samples_per_pixel``,
-            ``target_error``, ``max_depth``) or ``"auto"``. ``auto`` picks the model the trade
-            benchmark measured best for the quality preset, and builds nothing the scene does
-            not need, by these rules (each tested):
+            One of (docs/models.rst; the lit models use :attr:`lights`):
+
+            * ``"emission_absorption"`` — VTK's ``add_volume``, no lights;
+            * ``"ambient_occlusion"`` — options ``radius`` (4 voxels), ``ambient_radiance`` (1.0);
+            * ``"single_scattering"`` — lit;
+            * ``"ambient_scattering"`` — lit; ``radius`` (8 voxels), ``propagation``
+              ("beer_lambert"), ``table_quality`` (the preset's);
+            * ``"diffusion"`` — lit; ``flux_limited`` (False);
+            * ``"path_traced"`` — lit, the Monte Carlo reference
+              (:func:`pv_ambient.stages.reference.path_trace`); ``samples_per_pixel`` (the
+              preset's: 16 / 64 / 256), ``target_error`` (None; a warning gives the error reached
+              when the cap comes first), ``max_depth`` (None), ``denoise`` (False);
+            * ``"auto"`` — lit; ``time_budget`` (None).
+
+            An option given to a model that does not use it earns a warning. ``auto`` picks the
+            model the trade benchmark measured best for the quality preset, and builds nothing
+            the scene does not need, by these rules (each tested):
 
             1. no scattering (albedo 0 wherever σt > 0): ``single_scattering`` with no light
                volume built — emission and absorption only;
@@ -232,7 +266,8 @@ class Renderer(SceneStages):
             Monte Carlo effort of the preintegrated table slice (computed once, cached on disk);
             the preset's when None.
         progress_bar : bool, default: False
-            Show a tqdm progress bar over image tiles.
+            Show tqdm progress bars (the ray cast over image tiles, the table slice, the
+            diffusion solve, the path tracer's samples).
         ray_end : numpy.ndarray, optional
             ``(H, W)`` world distance along each pixel's camera ray at which opaque geometry
             stops it (``inf`` where there is none); the radiance then holds only the volume in
@@ -271,6 +306,8 @@ class Renderer(SceneStages):
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
         check_choice(model, "model", ALL_MODELS)
+        check_image_memory(size, model)
+        given = given_options(radius=radius, propagation=propagation, ambient_radiance=ambient_radiance)
         check_choice(quality, "quality", QUALITIES)
         check_choice(propagation, "propagation", PROPAGATION_MODES)
         preset = QUALITY_PRESETS[quality]
@@ -280,7 +317,7 @@ class Renderer(SceneStages):
         if light_resolution is None and preset["light_resolution"] is not None:
             light_resolution = max(preset["light_resolution"],
                                    default_factor(self.optics, self.geometry) if quality == "accurate" else 0.0)
-        explicit = frozenset(model_options)
+        explicit = frozenset(model_options) | given
         model_options.setdefault("samples_per_pixel", preset["samples_per_pixel"])
         unknown = set(model_options) - MODEL_OPTIONS
         if unknown:
@@ -311,11 +348,19 @@ class Renderer(SceneStages):
 
     def render_request(self, req: "RenderRequest") -> RenderResult:
         """Render a checked :class:`RenderRequest` (what :meth:`render` does after checking)."""
+        if MODEL_SPECS[req.model].lit:
+            self.place_lights(req.camera)
         model, extra = self.choose_model(req)
+        warn_unused_options(req, model)
         options = {**req.options, **extra}
         if model == "path_traced":
-            return self._path_trace(req, options)
-        return self._render(req, model, options)
+            res = self._path_trace(req, options)
+        else:
+            res = self._render(req, model, options)
+        if MODEL_SPECS[req.model].lit:
+            res.metadata["light_rig"] = self.light_rig
+            warn_black(self, res, req.background)
+        return res
 
     def _render(self, req, model, model_options):
         t_start = time.perf_counter()
@@ -418,6 +463,8 @@ class Renderer(SceneStages):
         from ..stages.reference import path_trace
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
+        check_image_memory(size, "path_traced")
+        self.place_lights(cam)
         block = check_int(majorant_block, "majorant_block", lo=1)
         asked = self.backend if backend is None else check_choice(backend, "backend", BACKENDS)
         backend = resolve_backend(asked)
@@ -426,6 +473,13 @@ class Renderer(SceneStages):
                          max_depth=max_depth, seed=seed, background=background, progress_bar=progress_bar,
                          batch=batch, light_clamp=light_clamp, rr_depth=rr_depth, backend=backend,
                          time_limit=time_limit, device_cache=self.device_cache if backend == "cuda" else None)
+        reached, target = out.metadata.get("relative_error"), out.metadata.get("target_error")
+        if target is not None and time_limit is None and not reached <= target:
+            warnings.warn(f"target_error={target:g} was not reached: the relative error is {reached:.3g} after "
+                          f"{out.metadata['spp']} samples per pixel (samples_per_pixel={samples_per_pixel} is the "
+                          f"cap; the error falls as 1/√samples, so about "
+                          f"{int(np.ceil(out.metadata['spp'] * (reached / target) ** 2))} would reach it)",
+                          UserWarning, stacklevel=2)
         return RenderResult(radiance=out.radiance, alpha=out.alpha, camera=cam, metadata=out.metadata,
                             std_error=out.std_error)
 
@@ -486,30 +540,56 @@ class Renderer(SceneStages):
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
 
-def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=(), model="emission_absorption",
+def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=None, model="emission_absorption",
            scalars=None, component=None, preference="point", nan_policy="raise", **options) -> RenderResult:
     """Render a volume: the one-call entry point.
 
     Parameters
     ----------
     grid : pyvista.ImageData or vtkImageData
-        The volume (never modified).
+        The volume (never modified). A 2-D grid (one point thick) is rendered as a slab one
+        spacing thick, as VTK's GPU mapper draws it; a single point is an error.
     transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
         PyVista's defaults (theme colormap, linear opacity, default unit distance) when None.
-    camera : pyvista.Camera, pyvista.Plotter, Camera, dict or list, optional
-        PyVista's default isometric view when None.
+    camera : pyvista.Camera, pyvista.Plotter, Camera, dict, list or str, optional
+        PyVista's default isometric view when None; ``"iso"``, ``"xy"``, ``"xz"``, ``"yz"``,
+        ``"yx"``, ``"zx"``, ``"zy"`` as ``Plotter.camera_position`` takes them.
     window_size : (int, int), optional
-        ``(width, height)``.
-    lights : sequence, optional
-        Point and directional lights (used by the scattering models).
+        ``(width, height)``, default (512, 512) (a plotter's when ``camera`` is a plotter).
+    lights : sequence of PointLight, DirectionalLight, pyvista.Light or dict, optional
+        Used by the lit models. None (not given): a default light rig placed from the camera
+        and the bounds, bright in any world unit (docs/lights.rst); ``()``: no light (a lit
+        model then renders black, with a warning). Lights given to a model that ignores them
+        earn a warning.
     model : str, default: "emission_absorption"
+        ``"emission_absorption"`` (VTK's ``add_volume``: no lights), ``"ambient_occlusion"``
+        (options ``radius`` = 4 voxels, ``ambient_radiance`` = 1.0), ``"single_scattering"``,
+        ``"ambient_scattering"`` (``radius`` = 8 voxels, ``propagation`` = "beer_lambert",
+        ``table_quality`` = the preset's), ``"diffusion"`` (``flux_limited`` = False),
+        ``"path_traced"`` (``samples_per_pixel`` = 16 / 64 / 256 by ``quality``,
+        ``target_error`` = None, ``max_depth`` = None, ``denoise`` = False) or ``"auto"``
+        (``time_budget`` = None; rules in :meth:`Renderer.render`). The lit models also take
+        ``phase`` (isotropic) and ``light_resolution`` (the preset's). docs/models.rst
+        describes each; an option the chosen model does not use earns a warning.
+    scalars : str, optional
+        Array to classify (the active scalars when None).
+    component : int, optional
+        Component of a multi-component array (the magnitude when None).
+    preference : {"point", "cell"}, default: "point"
+        Which data to use when both exist.
+    nan_policy : {"raise", "vacuum"}, default: "raise"
+        Non-finite scalars are an error, or empty space.
     **options
-        Passed to :meth:`Renderer.render` (``step``, ``jitter``, ``seed``, ``background``,
-        ``early_termination``, ``progress_bar``).
+        Every other keyword of :meth:`Renderer.render`, with its defaults: ``quality="balanced"``,
+        ``step=None`` (½ the smallest spacing), ``jitter=False``, ``seed=0``,
+        ``background=(0, 0, 0)``, ``early_termination=1e-5``, ``progress_bar=False``,
+        ``ray_end=None``, ``backend=None`` ("auto"), and the model options above.
 
     Returns
     -------
     RenderResult
+        Linear float32 radiance and alpha; ``save("x.png")`` shows the lit models at
+        ``exposure="auto"`` (docs/display.rst).
 
     Examples
     --------
@@ -519,7 +599,16 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
     >>> res = pv_ambient.render(grid, window_size=(40, 30))
     >>> res.radiance.shape, res.alpha.shape
     ((30, 40, 3), (30, 40))
+
+    A lit model with no light argument gets the default light rig:
+
+    >>> res = pv_ambient.render(grid, window_size=(40, 30), model="single_scattering")
+    >>> res.metadata["lights"], res.metadata["light_rig"]
+    (2, 'default')
     """
+    if window_size is not None:
+        check_image_memory(check_window_size(window_size), model if isinstance(model, str) else "")
+    warn_unused_lights(lights, model)
     r = Renderer(grid, transfer_function=transfer_function, scalars=scalars, component=component,
                  lights=lights, preference=preference, nan_policy=nan_policy)
     return r.render(camera=camera, window_size=window_size, model=model, **options)
