@@ -155,7 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                        "models; 0 for emission_absorption and ambient_occlusion)")
     r.add_argument("--tonemap", choices=TONEMAPS, help="PNG tone map")
     r.add_argument("--srgb", action="store_true", help="sRGB-encode the PNG")
-    r.add_argument("--progress", action="store_true", help="show a progress bar")
+    r.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bars per stage: --progress at once, --no-progress never; default: a named bar "
+                        "for each stage that runs longer than 2 s")
     r.add_argument("--backend", choices=BACKENDS,
                    help="where the kernels run (overrides the scene's 'backend'; default auto)")
     r.set_defaults(func=_cmd_render)

@@ -158,8 +158,10 @@ def load_scene(path) -> Scene:
     return scene
 
 
-def render_scene(scene, *, progress_bar=False):
-    """Render a :class:`Scene`, a scene dict, or a path to a scene file → RenderResult."""
+def render_scene(scene, *, progress_bar=None):
+    """Render a :class:`Scene`, a scene dict, or a path to a scene file → RenderResult
+    (``progress_bar`` as :meth:`pv_ambient.Renderer.render`: None shows a bar per stage that runs
+    longer than 2 s)."""
     from .rendering.renderer import Renderer
     from .rendering.request import warn_unused_lights
 

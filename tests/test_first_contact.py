@@ -269,3 +269,145 @@ def test_version_is_0_3_0_in_the_package_and_pyproject():
     toml = (Path(__file__).resolve().parent.parent / "pyproject.toml").read_text()
     assert re.search(r'^version = "0\.3\.0"$', toml, re.MULTILINE)
     assert pa.__version__ == "0.3.0"
+
+
+# -- PyVista habits ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("view", ["iso", "xy", "xz", "yz", "yx", "zx", "zy"])
+def test_camera_strings_are_pyvistas(view):
+    """Why: ``camera="iso"`` (PyVista's camera strings) was rejected."""
+    import pyvista as pv
+
+    grid = datasets.cloud(n=12)
+    res = pa.render(grid, camera=view, window_size=(12, 10))
+    pl = pv.Plotter(off_screen=True)
+    pl.add_mesh(grid.outline())
+    pl.camera_position = view
+    pl.reset_camera(bounds=grid.bounds)
+    ours, theirs = res.camera, pl.camera
+    for a, b in ((ours.position, theirs.position), (ours.focal_point, theirs.focal_point),
+                 (ours.view_up, theirs.up)):
+        np.testing.assert_allclose(a, b, atol=1e-9)
+    pl.close()
+    with pytest.raises(ValueError, match=r"camera 'top' is not one of PyVista's camera strings"):
+        pa.render(grid, camera="top", window_size=(8, 8))
+
+
+def test_pyvista_lights_become_physical_lights():
+    """Why: ``pyvista.Light`` objects were rejected."""
+    import pyvista as pv
+
+    from pv_ambient.inputs.lights import REFERENCE_IRRADIANCE
+
+    grid = datasets.cloud(n=12)  # centred on the origin
+    point = pv.Light(position=(0.0, 0.0, 3.0), positional=True, intensity=0.5, color=(1.0, 0.5, 0.0), cone_angle=90)
+    sun = pv.Light(position=(0.0, 0.0, 1.0), focal_point=(0.0, 0.0, 0.0), intensity=1.0)
+    head = pv.Light(light_type="headlight")
+    r = pa.Renderer(grid, lights=[point, sun, head])
+    cam = pa.Camera((0.0, -4.0, 0.0), (0, 0, 0), (0, 0, 1))
+    res = r.render(camera=cam, window_size=(12, 10), model="single_scattering")
+    p, s, h = r.lights
+    assert isinstance(p, pa.PointLight) and p.position == (0.0, 0.0, 3.0)
+    # intensity 0.5 → irradiance 0.5·8π at the volume's centre, 3 units away: I = 0.5·8π·9, coloured
+    colour = np.array(point.GetDiffuseColor())  # (1, 128/255, 0): pyvista stores 8-bit colours
+    assert abs(colour[1] - 0.5) < 0.01
+    np.testing.assert_allclose(p.intensity, colour * 0.5 * REFERENCE_IRRADIANCE * 9.0)
+    assert isinstance(s, pa.DirectionalLight) and s.direction == (0.0, 0.0, -1.0)
+    np.testing.assert_allclose(s.irradiance, REFERENCE_IRRADIANCE)
+    assert isinstance(h, pa.DirectionalLight) and np.allclose(h.direction, (0.0, 1.0, 0.0))  # along the view
+    assert res.metadata["lights"] == 3 and float(res.radiance.max()) > 0.05
+    # a spot light (VTK: positional with a cone under 90°, pyvista's default 30°) is a point light, with a warning
+    with pytest.warns(UserWarning, match="spot cone and attenuation are not modelled"):
+        pa.Renderer(grid, lights=pv.Light(position=(0.0, 0.0, 3.0), positional=True))
+    # the head light stays where the first render put it
+    r.render(camera=pa.Camera((4.0, 0.0, 0.0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), model="single_scattering")
+    assert r.lights[2] is h
+
+
+def test_add_ambient_volume_keeps_the_plotter_background():
+    """Why: the plane painted the plotter's background black (PyVista's white theme lost its title)."""
+    import pyvista as pv
+
+    grid = datasets.cloud(n=12)
+    pl = pv.Plotter(off_screen=True, window_size=(40, 30))
+    pl.set_background("white")
+    vol = pa.add_ambient_volume(pl, grid, model="single_scattering")
+    shot = pl.screenshot(return_img=True)
+    assert shot[0, 0].tolist() == [255, 255, 255] and shot[-1, -1].tolist() == [255, 255, 255]
+    # where the volume covers a pixel, the background shows through by its transmittance: D(L) + T·B
+    res, shown = vol.volume_result, vol.result.to_uint8(**vol.display)
+    expect = np.clip(np.round(res.to_uint8(exposure=vol.display["exposure"]).astype(float)
+                              + 255.0 * (1.0 - res.alpha[..., None])), 0, 255)
+    assert np.abs(shown.astype(float) - expect).max() <= 1.0
+    pl.close()
+    # background= still paints that radiance
+    pl = pv.Plotter(off_screen=True, window_size=(40, 30))
+    pl.set_background("white")
+    pa.add_ambient_volume(pl, grid, background=(0.0, 0.0, 0.0))
+    assert pl.screenshot(return_img=True)[0, 0].tolist() == [0, 0, 0]
+    pl.close()
+
+
+# -- progress --------------------------------------------------------------------------------------------------
+def test_progress_bars_are_named_per_stage_and_off_by_default_in_tests(capsys):
+    """Why: the only bar covered the final ray cast (unnamed), long stages were silent."""
+    grid = datasets.cloud(n=12)
+    pa.render(grid, window_size=(16, 12), model="single_scattering")
+    assert capsys.readouterr().err == ""  # progress_bar=None: never under pytest
+    pa.render(grid, window_size=(16, 12), model="single_scattering", progress_bar=True)
+    err = capsys.readouterr().err
+    assert "light volumes" in err and "2/2" in err and "ray cast (single_scattering)" in err
+
+
+def test_delayed_stage_bar_appears_only_after_two_seconds(monkeypatch, capsys):
+    import time
+
+    from pv_ambient.rendering import request
+
+    monkeypatch.delenv("PYTEST_CURRENT_TEST")
+    monkeypatch.setattr(request, "PROGRESS_DELAY", 0.2)
+    with request.stage_bar(None, "quick stage"):
+        pass
+    assert "quick stage" not in capsys.readouterr().err
+    with request.stage_bar(None, "slow stage") as bar:
+        time.sleep(0.8)
+        bar.update()
+    assert "slow stage" in capsys.readouterr().err
+
+
+def test_compile_notice_is_one_line_once(monkeypatch, capsys):
+    """Why: the first call of each model compiled for ~9 s without a word."""
+    from types import SimpleNamespace
+
+    from pv_ambient._kernels import raycast
+    from pv_ambient.rendering import request
+
+    fresh = SimpleNamespace(signatures=[], _cache=SimpleNamespace(_cache_file=SimpleNamespace(
+        _index_path="/nonexistent/raycast.nbi")))
+    monkeypatch.setattr(raycast, "raycast_image", fresh)
+    monkeypatch.setattr(request, "_NOTICED", [])
+    request.compile_notice("ambient_scattering")
+    request.compile_notice("diffusion")
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pv_ambient: compiling the rendering kernels")
+
+
+# -- grids without thickness ----------------------------------------------------------------------------------
+def test_2d_and_single_point_grids_are_clear_errors():
+    """Why: a (32, 32, 1) grid or a single voxel rendered fully transparent, without a word."""
+    import pyvista as pv
+
+    g = pv.ImageData(dimensions=(32, 32, 1))
+    g["v"] = np.ones(g.n_points, np.float32)
+    with pytest.raises(ValueError, match=r"the grid is 2-D \(dimensions \(32, 32, 1\): one point along z\).*"
+                                         r"dimensions \(32, 32, 2\) holding the layer twice"):
+        pa.render(g, model="ambient_scattering")
+    one = pv.ImageData(dimensions=(1, 1, 1))
+    one["v"] = np.ones(1, np.float32)
+    with pytest.raises(ValueError, match=r"single point or cell \(dimensions \(1, 1, 1\)\)"):
+        pa.render(one)
+    # the remedy the message names renders a slab one spacing thick
+    slab = pv.ImageData(dimensions=(32, 32, 2), spacing=(1.0, 1.0, 1.0))
+    slab["v"] = np.ones(slab.n_points, np.float32)
+    res = pa.render(slab, window_size=(16, 16), camera="xy",
+                    transfer_function=pa.TransferFunction(clim=(0, 1), density_scale=2.0, opacity=[1.0, 1.0]))
+    assert float(res.alpha[8, 8]) == pytest.approx(1 - np.exp(-2.0), abs=0.02)

@@ -380,7 +380,8 @@ def test_ctrl_c_between_tiles_and_batches_propagates_and_the_renderer_survives(m
             seen = _interrupt_after(m, 2)
             with pytest.raises(KeyboardInterrupt):
                 r.render(window_size=(12, 8), model=model, progress_bar=True, **extra)
-            assert seen["closed"] == 1, f"{model}: the bar was not closed"
+            # every bar that ran was closed (since 0.3.0 a lit model has one per stage: light volumes, ray cast)
+            assert seen["closed"] == len({id(b) for b in seen["bars"]}) >= 1, f"{model}: a bar was not closed"
     # the renderer's caches were not left half-written: the same pictures again
     np.testing.assert_array_equal(r.render(window_size=(12, 8)).radiance, ref_ea.radiance)
     np.testing.assert_array_equal(r.render(window_size=(12, 8), model="path_traced", samples_per_pixel=4).radiance,

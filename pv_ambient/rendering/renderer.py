@@ -40,7 +40,7 @@ from .presets import (
     QUALITY_PRESETS,
     step_for,
 )
-from .request import RenderRequest, check_image_memory, check_ray_end, given_options, warn_black, warn_unused_lights, warn_unused_options
+from .request import RenderRequest, check_image_memory, check_ray_end, check_thickness, compile_notice, stage_bar, given_options, warn_black, warn_unused_lights, warn_unused_options
 from .result import RenderResult
 from .stages import NO_GRID, SceneStages
 
@@ -54,7 +54,8 @@ class Renderer(SceneStages):
     Parameters
     ----------
     grid : pyvista.ImageData, vtkImageData or pv_ambient.inputs.grid.Volume
-        The volume. Never modified.
+        The volume. Never modified. It needs a thickness: a 2-D grid (one point along an axis)
+        or a single point is a ValueError that says how to give it one.
     transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
         How scalars become optical properties; PyVista's defaults when None.
     scalars : str, optional
@@ -87,6 +88,7 @@ class Renderer(SceneStages):
         check_choice(backend, "backend", BACKENDS)
         self.backend = backend
         self.volume = grid if isinstance(grid, Volume) else volume_from_image(grid, preference=preference)
+        check_thickness(self.volume.geometry, getattr(grid, "dimensions", None))
         self.transfer_function = as_transfer_function(transfer_function)
         t = time.perf_counter()
         self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
@@ -178,7 +180,7 @@ class Renderer(SceneStages):
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
-               progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
+               progress_bar=None, radius=None, light_resolution=None, ambient_radiance=1.0,
                propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
                **model_options) -> RenderResult:
         """Render one image.
@@ -218,21 +220,16 @@ class Renderer(SceneStages):
             3. no light left: ``single_scattering`` (emission and absorption only);
             4. otherwise ``diffusion``, with ``quality="accurate"`` flux-limited, and with
                ``quality="preview"`` ``ambient_scattering`` (an isotropic phase function uses a
-               1D table slice: D does not depend on θ). On all three scenes of the trade
-               benchmark plain diffusion has a lower error than ambient scattering (4×4-block
-               relative RMSE 0.35 / 0.16 / 0.11 against 0.49 / 0.75 / 0.13) at 0.5–0.7× its
-               camera-move cost; its first frame costs 1.2–2.2× ambient scattering's and
-               2.4–6.5× that of ambient scattering's "preview", the cheapest first frame that
-               carries multiply scattered light; flux-limited diffusion is the lowest-error
-               noise-free model (0.22 / 0.17 / 0.06) at a first frame 1.3–2.4× plain
-               diffusion's (README, "The trade");
+               1D table slice: D does not depend on θ). Diffusion has the lower error at a
+               similar camera-move cost, ambient scattering's "preview" the cheapest first
+               frame that carries multiply scattered light, flux-limited diffusion the lowest
+               error of the noise-free models (docs/trade.rst);
             5. with ``time_budget=SECONDS`` (a still image): ``path_traced`` with as many samples
                per pixel as fit in the budget (``samples_per_pixel`` is then the cap, default
-               4096), denoised when ``pyoidn`` is installed — on every row of the trade
-               benchmark the path tracer reaches each noise-free model's error in less time
-               than that model's first frame (README, "The trade", column "PT same err"). The
-               denoiser's time (one emission–absorption frame for its guide, then OIDN) comes
-               on top of the budget.
+               4096), denoised when ``pyoidn`` is installed — the path tracer reaches each
+               noise-free model's error in less time than that model's first frame
+               (docs/trade.rst). The denoiser's time (one emission–absorption frame for its
+               guide, then OIDN) comes on top of the budget.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
             the smallest grid spacing; light grid 1×, docs/ambient_scattering.rst §3's default, ≥ 2× the data
@@ -265,9 +262,11 @@ class Renderer(SceneStages):
         table_quality : {"preview", "balanced", "accurate"}, optional
             Monte Carlo effort of the preintegrated table slice (computed once, cached on disk);
             the preset's when None.
-        progress_bar : bool, default: False
-            Show tqdm progress bars (the ray cast over image tiles, the table slice, the
-            diffusion solve, the path tracer's samples).
+        progress_bar : bool, optional
+            One tqdm bar per stage, named: light volumes, preintegrated table, diffusion solve,
+            ray cast (over image tiles), path-traced samples. True shows them at once, False
+            never; None (the default) shows a stage's bar only once it has run 2 s, and never
+            under pytest.
         ray_end : numpy.ndarray, optional
             ``(H, W)`` world distance along each pixel's camera ray at which opaque geometry
             stops it (``inf`` where there is none); the radiance then holds only the volume in
@@ -297,7 +296,7 @@ class Renderer(SceneStages):
 
     def request(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                 jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
-                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
+                progress_bar=None, radius=None, light_resolution=None, ambient_radiance=1.0,
                 propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
                 **model_options) -> "RenderRequest":
         """Check :meth:`render`'s arguments once into a frozen :class:`RenderRequest` (same parameters)."""
@@ -343,7 +342,7 @@ class Renderer(SceneStages):
             early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
             ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
             radius=self._radius(radius, model), t_end=check_ray_end(ray_end, size), light_resolution=light_resolution,
-            table_quality=table_quality, propagation=propagation, progress_bar=bool(progress_bar), asked=asked,
+            table_quality=table_quality, propagation=propagation, progress_bar=None if progress_bar is None else bool(progress_bar), asked=asked,
             backend=resolve_backend(asked), time_budget=budget, options=dict(model_options), explicit=explicit)
 
     def render_request(self, req: "RenderRequest") -> RenderResult:
@@ -351,6 +350,7 @@ class Renderer(SceneStages):
         if MODEL_SPECS[req.model].lit:
             self.place_lights(req.camera)
         model, extra = self.choose_model(req)
+        compile_notice(model)
         warn_unused_options(req, model)
         options = {**req.options, **extra}
         if model == "path_traced":
@@ -373,12 +373,18 @@ class Renderer(SceneStages):
         lights = self.active_lights(grid, backend) if MODEL_SPECS[model].lit else ()
         if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
             lights = ()
-        taus = [self.optical_depth(lt, grid, backend) for lt in lights]
+        taus = []
+        with stage_bar(progress_bar, "light volumes", len(lights)) if lights else stage_bar(False, "") as bar:
+            for lt in lights:
+                taus.append(self.optical_depth(lt, grid, backend))
+                bar.update()
+        inner = progress_bar is True  # the stages' own bars (table nodes, solver iterations)
         ball = self.ball_grid(radius) if MODEL_SPECS[model].ball else K.NONE4
         D, a_nodes, lo_log, dlog = K.NONE3, K.NONE1, 0.0, 1.0
         phi = K.NONE4
         if model == "ambient_scattering" and lights:
-            tab = self.table(ph, radius, quality=req.table_quality, progress_bar=progress_bar)
+            with stage_bar(progress_bar if not inner else False, "preintegrated table"):
+                tab = self.table(ph, radius, quality=req.table_quality, progress_bar=inner)
             D, F_diff, a_nodes, lo_log, dlog = tab.lookup_args()
             if req.propagation == "tube":
                 phi = np.concatenate([self.front_depth(lt, grid, radius, ph, req.table_quality) for lt in lights],
@@ -387,8 +393,9 @@ class Renderer(SceneStages):
                 phi = None  # the τ grids themselves, read at the ball's entry point
         diff = K.NONE12
         if model == "diffusion" and lights:
-            diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
-                                  progress_bar=progress_bar, backend=backend)
+            with stage_bar(progress_bar if not inner else False, "diffusion solve"):
+                diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
+                                      progress_bar=inner, backend=backend)
         seed, bg, ert, amb, t_end, jitter, asked = (req.seed, req.background, req.early_termination,
                                                     req.ambient_radiance, req.t_end, req.jitter, req.asked)
         t_prep = time.perf_counter() - t_start
@@ -404,9 +411,10 @@ class Renderer(SceneStages):
                     K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi),
                     K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog),
                     K.Diffusion(diff, float(ph.mean_cosine)))
-            backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
-                                  device_cache=self.device_cache if backend == "cuda" else None,
-                                  progress_bar=progress_bar, name=model)
+            with stage_bar(progress_bar if not inner else False, f"ray cast ({model})"):
+                backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
+                                      device_cache=self.device_cache if backend == "cuda" else None,
+                                      progress_bar=inner, name=f"ray cast ({model})")
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": req.model, "quality": req.quality, "step": step,
@@ -490,11 +498,13 @@ class Renderer(SceneStages):
 
             if not available():
                 denoise_radiance(None)  # raises the ImportError that names the extra
-        res = self.path_trace(req.camera, req.window_size, phase=req.phase,
-                              samples_per_pixel=options.get("samples_per_pixel", DEFAULT_SPP),
-                              target_error=options.get("target_error"), max_depth=options.get("max_depth"),
-                              seed=req.seed, background=req.background, progress_bar=req.progress_bar,
-                              light_clamp=0.25 * req.step, backend=req.backend, time_limit=options.get("time_limit"))
+        with stage_bar(False if req.progress_bar else req.progress_bar, "path-traced samples"):
+            res = self.path_trace(req.camera, req.window_size, phase=req.phase,
+                                  samples_per_pixel=options.get("samples_per_pixel", DEFAULT_SPP),
+                                  target_error=options.get("target_error"), max_depth=options.get("max_depth"),
+                                  seed=req.seed, background=req.background, progress_bar=req.progress_bar is True,
+                                  light_clamp=0.25 * req.step, backend=req.backend,
+                                  time_limit=options.get("time_limit"))
         if "time_limit" in options:
             res.metadata["requested_model"] = "auto"
             res.metadata["time_budget"] = options["time_limit"]
@@ -547,8 +557,8 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
     Parameters
     ----------
     grid : pyvista.ImageData or vtkImageData
-        The volume (never modified). A 2-D grid (one point thick) is rendered as a slab one
-        spacing thick, as VTK's GPU mapper draws it; a single point is an error.
+        The volume (never modified). A 2-D grid (one point along an axis) or a single point
+        has no thickness: a ValueError says how to give it one.
     transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
         PyVista's defaults (theme colormap, linear opacity, default unit distance) when None.
     camera : pyvista.Camera, pyvista.Plotter, Camera, dict, list or str, optional
@@ -582,8 +592,8 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
     **options
         Every other keyword of :meth:`Renderer.render`, with its defaults: ``quality="balanced"``,
         ``step=None`` (½ the smallest spacing), ``jitter=False``, ``seed=0``,
-        ``background=(0, 0, 0)``, ``early_termination=1e-5``, ``progress_bar=False``,
-        ``ray_end=None``, ``backend=None`` ("auto"), and the model options above.
+        ``background=(0, 0, 0)``, ``early_termination=1e-5``, ``progress_bar=None`` (a named
+        bar per stage that runs longer than 2 s; never under pytest), ``ray_end=None``, ``backend=None`` ("auto"), and the model options above.
 
     Returns
     -------

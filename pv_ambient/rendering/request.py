@@ -4,7 +4,10 @@ once), and the checks of its array inputs."""
 
 from __future__ import annotations
 
+import os
+import sys
 import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,7 +38,7 @@ class RenderRequest:
     light_resolution: float | None
     table_quality: str
     propagation: str
-    progress_bar: bool
+    progress_bar: bool | None
     asked: str
     backend: str
     time_budget: float | None
@@ -154,3 +157,119 @@ def check_image_memory(size, model):
         raise MemoryError(f"window_size={(int(w), int(h))} needs about {need / 2**30:.3g} GiB ({need} bytes) for "
                           f"the image buffers of model={model!r}, more than the {have / 2**30:.3g} GiB available; "
                           "render a smaller image")
+
+
+#: ``progress_bar=None`` (the default): a stage's bar appears only once it has run this long (s).
+PROGRESS_DELAY = 2.0
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def set_postfix_str(self, text):
+        pass
+
+
+class _DelayedBar:
+    """A tqdm bar that appears only after ``delay`` seconds and then refreshes its elapsed time
+    twice a second from a thread (a stage may run long without a step to report)."""
+
+    def __init__(self, name, total, delay):
+        import threading
+
+        self.name, self.total, self.n, self.bar = name, total, 0, None
+        self._done = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._run, args=(delay,), daemon=True)
+        self._thread.start()
+
+    def _run(self, delay):
+        if self._done.wait(delay):
+            return
+        from tqdm.auto import tqdm
+
+        with self._lock:
+            if self._done.is_set():
+                return
+            self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False)
+            self.bar.start_t -= delay  # elapsed time counts from the start of the stage
+        while not self._done.wait(0.5):
+            with self._lock:
+                self.bar.refresh()
+
+    def update(self, n=1):
+        with self._lock:
+            self.n += n
+            if self.bar is not None:
+                self.bar.update(n)
+
+    def close(self):
+        self._done.set()
+        self._thread.join()
+        if self.bar is not None:
+            self.bar.close()
+
+
+@contextmanager
+def stage_bar(progress_bar, name, total=1):
+    """A tqdm bar for one named render stage (light volumes, table, diffusion solve, ray cast,
+    samples): shown at once with ``progress_bar=True``, never with False, and with None (the
+    default) only once the stage has run :data:`PROGRESS_DELAY` seconds — and never under pytest
+    (``PYTEST_CURRENT_TEST``)."""
+    if progress_bar is False or (progress_bar is None and "PYTEST_CURRENT_TEST" in os.environ):
+        yield _NoBar()
+        return
+    if progress_bar is None:
+        bar = _DelayedBar(name, total, PROGRESS_DELAY)
+    else:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=total, desc=name)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+_NOTICED = []
+
+
+def compile_notice(model):
+    """One line on stderr, once per process, before the first render whose kernels are neither
+    compiled in this process nor in Numba's on-disk cache (compiling takes 10–40 s once)."""
+    if _NOTICED:
+        return
+    _NOTICED.append(True)
+    if model == "path_traced":
+        from .._kernels.pathtrace import pathtrace_image as fn
+    else:
+        from .._kernels.raycast import raycast_image as fn
+    try:
+        cached = bool(fn.signatures) or os.path.exists(fn._cache._cache_file._index_path)
+    except AttributeError:  # another Numba: say nothing rather than something wrong
+        cached = True
+    if not cached:
+        print("pv_ambient: compiling the rendering kernels for this machine (first use only, about 10-40 s; "
+              "then cached)", file=sys.stderr, flush=True)
+
+
+def check_thickness(geometry, dimensions=None):
+    """Raise a ValueError for a grid without thickness: a single point, or a 2-D grid (one point
+    along an axis). Such a box has zero volume and would render nothing; VTK's mappers draw a 2-D
+    grid face-on but not edge-on (measured with the gpu mapper), not as a slab, so no thickness is
+    guessed here."""
+    if not geometry.is_empty:
+        return
+    dims = tuple(int(d) for d in (dimensions if dimensions is not None else geometry.shape))
+    flat = [ax for ax, (lo, hi) in enumerate(zip(geometry.box_lo, geometry.box_hi)) if hi <= lo]
+    if len(flat) == 3:
+        raise ValueError(f"the grid holds a single point or cell (dimensions {dims}): a volume needs at least two "
+                         "points along every axis")
+    names = " and ".join("xyz"[ax] for ax in flat)
+    example = tuple(2 if ax in flat else d for ax, d in enumerate(dims))
+    raise ValueError(f"the grid is 2-D (dimensions {dims}: one point along {names}), so the volume has no thickness "
+                     "and would render nothing; pv_ambient does not guess one (VTK's mappers draw such a grid "
+                     "face-on but not edge-on). Give it one: e.g. an ImageData of dimensions "
+                     f"{example} holding the layer twice, the spacing along {names} its thickness — or show a 2-D "
+                     "image with Plotter.add_mesh")
