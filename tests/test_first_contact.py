@@ -111,15 +111,38 @@ def test_black_display_at_explicit_exposure_warns_with_the_radiance_reached():
 # -- acceptance 1: MNI152, no light or exposure arguments ----------------------------------------------------
 @pytest.fixture(scope="module")
 def mni152():
+    """MNI152 in 2 mm voxels (2×2×2 block means), world units mm: built here from the NIfTI affine,
+    independently of pv_ambient.pyvista.nifti_to_image_data (checked against it below)."""
+    import pyvista as pv
+
     nilearn_datasets = pytest.importorskip("nilearn.datasets")
+    img = nilearn_datasets.load_mni152_template()
+    data = img.get_fdata(dtype=np.float32)
+    n = [s // 2 for s in data.shape]
+    data = data[:2 * n[0], :2 * n[1], :2 * n[2]].reshape(n[0], 2, n[1], 2, n[2], 2).mean(axis=(1, 3, 5))
+    linear = img.affine[:3, :3] * 2.0
+    spacing = np.linalg.norm(linear, axis=0)
+    origin = img.affine[:3, 3] + img.affine[:3, :3] @ np.full(3, 0.5)  # centre of the first 2×2×2 block
+    grid = pv.ImageData(dimensions=data.shape, spacing=spacing, origin=origin, direction_matrix=linear / spacing)
+    grid.point_data["T1"] = data.astype(np.float32).ravel(order="F")
+    return grid, img
+
+
+def test_nifti_to_image_data_matches_an_independent_conversion(mni152):
     from pv_ambient.pyvista import nifti_to_image_data
 
-    return nifti_to_image_data(nilearn_datasets.load_mni152_template(), factor=2, name="T1")
+    grid, img = mni152
+    ours = nifti_to_image_data(img, factor=2, name="T1")
+    assert ours.dimensions == grid.dimensions and np.allclose(ours.spacing, (2.0, 2.0, 2.0))
+    np.testing.assert_allclose(ours.origin, grid.origin)
+    np.testing.assert_allclose(ours.points[[0, -1]], grid.points[[0, -1]])
+    np.testing.assert_array_equal(ours["T1"], grid["T1"])
 
 
 def test_mni152_no_tuning_is_well_exposed(mni152):
     """The README's first picture: ≥ 50 % of the brain's pixels above 10 % luminance, ≤ 5 % saturated,
     with the default rig and with one default point light 300 mm above the brain."""
+    mni152, _ = mni152
     tf = pa.TransferFunction(cmap="bone")
     size = (160, 160)
     res = pa.render(mni152, transfer_function=tf, model="ambient_scattering", window_size=size)
@@ -318,6 +341,12 @@ def test_pyvista_lights_become_physical_lights():
     # a spot light (VTK: positional with a cone under 90°, pyvista's default 30°) is a point light, with a warning
     with pytest.warns(UserWarning, match="spot cone and attenuation are not modelled"):
         pa.Renderer(grid, lights=pv.Light(position=(0.0, 0.0, 3.0), positional=True))
+    # a camera light lives in VTK's camera frame (camera at (0, 0, 1), looking at the origin):
+    # one at (1, 0, 1) shines from the camera's right, across the view direction
+    side = pv.Light(position=(1.0, 0.0, 1.0), focal_point=(0.0, 0.0, 0.0), light_type="camera light")
+    r2 = pa.Renderer(grid, lights=[side])
+    r2.render(camera=cam, window_size=(8, 8), model="single_scattering")
+    np.testing.assert_allclose(r2.lights[0].direction, np.array([-1.0, 1.0, 0.0]) / np.sqrt(2), atol=1e-12)
     # the head light stays where the first render put it
     r.render(camera=pa.Camera((4.0, 0.0, 0.0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), model="single_scattering")
     assert r.lights[2] is h

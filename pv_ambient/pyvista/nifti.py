@@ -13,7 +13,7 @@ import pyvista as pv
 
 
 def block_mean(data, affine, factor):
-    """``data`` averaged over ``factor``³ blocks, and the affine of the coarser grid (new voxel
+    """``data`` averaged over factor³ blocks, and the affine of the coarser grid (new voxel
     ``I`` is the centre of old voxels ``f·I … f·I + f − 1``).
 
     Examples
@@ -48,7 +48,7 @@ def nifti_to_image_data(image, *, factor=1, name="values"):
         ``nilearn.datasets.load_mni152_template()`` returns), or a ``(data, affine)`` pair with
         ``data`` indexed ``[i, j, k]``.
     factor : int, default: 1
-        Average ``factor``³ voxel blocks into one (:func:`block_mean`): 2 turns the 1 mm MNI152
+        Average factor³ voxel blocks into one (:func:`block_mean`): 2 turns the 1 mm MNI152
         template into 2 mm voxels, 8× fewer.
     name : str, default: "values"
         Name of the point array.

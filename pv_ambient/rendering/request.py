@@ -173,7 +173,8 @@ class _NoBar:
 
 class _DelayedBar:
     """A tqdm bar that appears only after ``delay`` seconds and then refreshes its elapsed time
-    twice a second from a thread (a stage may run long without a step to report)."""
+    every second (every 10 s when stderr is not a terminal) from a thread: a stage may run long
+    without a step to report."""
 
     def __init__(self, name, total, delay):
         import threading
@@ -192,9 +193,11 @@ class _DelayedBar:
         with self._lock:
             if self._done.is_set():
                 return
-            self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False)
+            fmt = {"bar_format": "{desc}: {elapsed} elapsed"} if self.total == 1 else {}  # one step: the time
+            self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False, **fmt)
             self.bar.start_t -= delay  # elapsed time counts from the start of the stage
-        while not self._done.wait(0.5):
+        every = 1.0 if getattr(sys.stderr, "isatty", lambda: False)() else 10.0  # a log file: fewer lines
+        while not self._done.wait(every):
             with self._lock:
                 self.bar.refresh()
 
