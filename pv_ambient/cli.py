@@ -167,8 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-n", type=int, default=96, help="grid resolution")
     d.add_argument("--size", type=int, default=400, help="panel size in pixels")
     d.set_defaults(func=_cmd_demo)
-    b = sub.add_parser("bench", usage="pv-ambient bench [NAME] [OPTIONS]", help="run a benchmark table (from a source checkout); 'bench NAME --help' lists "
-                                     "its options", add_help=False,
+    b = sub.add_parser("bench", usage="pv-ambient bench [NAME] [OPTIONS]", add_help=False,
+                       help="run a benchmark table (from a source checkout); 'bench NAME --help' lists its options",
                        description="Run one of the benchmark scripts of benchmarks/ (a source checkout); every "
                                    "argument after NAME goes to it: 'pv-ambient bench NAME --help' lists its options.",
                        formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -23,5 +23,5 @@ from .plotter import AmbientVolume, add_ambient_volume
 from .vtk_bridge import add_vtk_volume, optics_volume_property
 
 __all__ = ["AmbientAccessor", "AmbientVolume", "add_ambient_volume", "add_result_plane", "add_vtk_volume", "compare",
-           "composite_over_geometry", "display_to_linear", "nifti_to_image_data", "optics_volume_property", "ray_distance_from_depth",
-           "show_panels", "texture_image"]
+           "composite_over_geometry", "display_to_linear", "nifti_to_image_data", "optics_volume_property",
+           "ray_distance_from_depth", "show_panels", "texture_image"]

@@ -40,7 +40,8 @@ from .presets import (
     QUALITY_PRESETS,
     step_for,
 )
-from .request import RenderRequest, check_image_memory, check_ray_end, check_thickness, compile_notice, stage_bar, given_options, warn_black, warn_unused_lights, warn_unused_options
+from .request import (RenderRequest, check_image_memory, check_ray_end, check_thickness, compile_notice, given_options,
+                      stage_bar, warn_black, warn_unused_lights, warn_unused_options)
 from .result import RenderResult
 from .stages import NO_GRID, SceneStages
 
@@ -91,8 +92,9 @@ class Renderer(SceneStages):
         check_thickness(self.volume.geometry, getattr(grid, "dimensions", None))
         self.transfer_function = as_transfer_function(transfer_function)
         t = time.perf_counter()
-        self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
-                                                     nan_policy=nan_policy)
+        with stage_bar(None, "classify"):
+            self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
+                                                         nan_policy=nan_policy)
         self.timings = {"classify": time.perf_counter() - t}
         self.set_lights(lights)
         self.cache = SceneCache()
@@ -140,20 +142,21 @@ class Renderer(SceneStages):
         """Replace the lights; cached volumes of lights that stay are kept (a relight). None: the
         default rig, placed at the next lit render from its camera (as pyvista head and camera
         lights are)."""
-        center = np.reshape(np.asarray(self.bounds, dtype=float), (3, 2)).mean(axis=1)
-        self._lights_pending = lights if needs_camera(lights) else None
         self.light_rig = "default" if lights is None else "given"
-        self.lights = () if self._lights_pending is not None or lights is None else as_lights(lights, center=center)
+        self._lights_pending = needs_camera(lights)
+        self._light_spec = lights if self._lights_pending else None
+        self.lights = () if self._lights_pending else as_lights(lights, center=self._center())
 
     def place_lights(self, camera):
         """Place lights that wait for a camera (the default rig, pyvista head/camera lights) with
         ``camera``, once; returns :attr:`lights`. Every lit render calls it with its camera."""
-        if getattr(self, "_lights_pending", None) is not None or (self.light_rig == "default" and not self.lights):
-            center = np.reshape(np.asarray(self.bounds, dtype=float), (3, 2)).mean(axis=1)
-            spec = None if self.light_rig == "default" else self._lights_pending
-            self.lights = as_lights(spec, center=center, camera=camera)
-            self._lights_pending = None
+        if self._lights_pending:
+            self.lights = as_lights(self._light_spec, center=self._center(), camera=camera)
+            self._lights_pending, self._light_spec = False, None
         return self.lights
+
+    def _center(self):
+        return np.reshape(np.asarray(self.bounds, dtype=float), (3, 2)).mean(axis=1)
 
     def choose_model(self, request) -> tuple:
         """The model a request renders and the options the choice adds: ``auto``'s rules (listed in
@@ -342,7 +345,8 @@ class Renderer(SceneStages):
             early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
             ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
             radius=self._radius(radius, model), t_end=check_ray_end(ray_end, size), light_resolution=light_resolution,
-            table_quality=table_quality, propagation=propagation, progress_bar=None if progress_bar is None else bool(progress_bar), asked=asked,
+            table_quality=table_quality, propagation=propagation, asked=asked,
+            progress_bar=None if progress_bar is None else bool(progress_bar),
             backend=resolve_backend(asked), time_budget=budget, options=dict(model_options), explicit=explicit)
 
     def render_request(self, req: "RenderRequest") -> RenderResult:
@@ -593,7 +597,8 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
         Every other keyword of :meth:`Renderer.render`, with its defaults: ``quality="balanced"``,
         ``step=None`` (½ the smallest spacing), ``jitter=False``, ``seed=0``,
         ``background=(0, 0, 0)``, ``early_termination=1e-5``, ``progress_bar=None`` (a named
-        bar per stage that runs longer than 2 s; never under pytest), ``ray_end=None``, ``backend=None`` ("auto"), and the model options above.
+        bar per stage that runs longer than 2 s; never under pytest), ``ray_end=None``,
+        ``backend=None`` ("auto"), and the model options above.
 
     Returns
     -------
