@@ -374,14 +374,14 @@ class Renderer(SceneStages):
         w, h = size
         rad = np.zeros((h, w, 3), np.float32)
         alpha = np.zeros((h, w), np.float32)
-        lights = self.active_lights(grid, backend) if MODEL_SPECS[model].lit else ()
-        if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
-            lights = ()
-        taus = []
-        with stage_bar(progress_bar, "light volumes", len(lights)) if lights else stage_bar(False, "") as bar:
-            for lt in lights:
-                taus.append(self.optical_depth(lt, grid, backend))
-                bar.update()
+        lit = MODEL_SPECS[model].lit and bool(self.lights)
+        # the optical-depth volumes are computed (and cached) while the active lights are sorted out
+        with stage_bar(progress_bar if lit else False, f"light volumes ({len(self.lights)} lights)") as bar:
+            lights = self.active_lights(grid, backend) if lit else ()
+            if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
+                lights = ()
+            taus = [self.optical_depth(lt, grid, backend) for lt in lights]
+            bar.update()
         inner = progress_bar is True  # the stages' own bars (table nodes, solver iterations)
         ball = self.ball_grid(radius) if MODEL_SPECS[model].ball else K.NONE4
         D, a_nodes, lo_log, dlog = K.NONE3, K.NONE1, 0.0, 1.0
@@ -397,9 +397,13 @@ class Renderer(SceneStages):
                 phi = None  # the τ grids themselves, read at the ball's entry point
         diff = K.NONE12
         if model == "diffusion" and lights:
-            with stage_bar(progress_bar if not inner else False, "diffusion solve"):
+            with stage_bar(progress_bar, "diffusion solve") as bar:
                 diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
                                       progress_bar=inner, backend=backend)
+                info = getattr(self, "_diffusion_info", None) or {}
+                if "residual" in info:
+                    bar.set_postfix_str(f"{info['iterations']} iterations, residual {info['residual']:.2g}")
+                bar.update()
         seed, bg, ert, amb, t_end, jitter, asked = (req.seed, req.background, req.early_termination,
                                                     req.ambient_radiance, req.t_end, req.jitter, req.asked)
         t_prep = time.perf_counter() - t_start

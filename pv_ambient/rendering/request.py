@@ -1,6 +1,8 @@
 """The checked inputs of one render: :class:`RenderRequest`, built by
 :meth:`pv_ambient.Renderer.request` (every argument of :meth:`pv_ambient.Renderer.render` checked
-once), and the checks of its array inputs."""
+once), the checks of its array inputs and sizes (``ray_end``, the memory a ``window_size`` needs,
+a grid's thickness), the feedback a render gives (unused lights and options, a black lit
+picture: docs/lights.rst) and its progress (one named bar per stage, a compile notice)."""
 
 from __future__ import annotations
 
@@ -206,6 +208,11 @@ class _DelayedBar:
             self.n += n
             if self.bar is not None:
                 self.bar.update(n)
+
+    def set_postfix_str(self, text):
+        with self._lock:
+            if self.bar is not None:
+                self.bar.set_postfix_str(text)
 
     def close(self):
         self._done.set()
