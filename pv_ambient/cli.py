@@ -21,9 +21,32 @@ from .rendering.presets import ALL_MODELS
 from .rendering.result import TONEMAPS
 
 
+#: What ``-o`` and ``--radiance`` may end in (checked before any work).
+OUTPUT_SUFFIXES = (".png", ".npy", ".npz")
+
+
+def _check_outputs(args):
+    suffix = Path(args.output).suffix.lower()
+    if suffix not in OUTPUT_SUFFIXES:
+        raise ValueError(f"-o/--output must end in {', '.join(OUTPUT_SUFFIXES)}, got {args.output!r}")
+    if args.radiance and Path(args.radiance).suffix.lower() != ".npy":
+        raise ValueError(f"--radiance must end in .npy, got {args.radiance!r}")
+
+
+def _exposure(text):
+    """``--exposure``: a number of stops or ``auto``."""
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of stops or 'auto', got {text!r}") from None
+
+
 def _cmd_render(args) -> int:
     from .scene import load_scene, render_scene
 
+    _check_outputs(args)
     scene = load_scene(args.scene)
     if args.model:
         scene.render_kwargs["model"] = args.model
@@ -91,10 +114,17 @@ def _cmd_demo(args) -> int:
 
 
 BENCHMARKS = {"trade": "trade.py", "ea": "ea_vs_vtk.py", "ambient": "ambient.py", "gpu": "gpu.py"}
+BENCHMARK_HELP = {"trade": "every model against the path-traced reference: error against time (README, 'The trade')",
+                  "ea": "emission-absorption against VTK's fixed_point and gpu mappers: agreement and speed",
+                  "ambient": "ambient scattering frame costs (camera move, relight, TF change, table slice)",
+                  "gpu": "the CUDA backend against the CPU (needs numba-cuda and a GPU)"}
 
 
 def _cmd_bench(args) -> int:
     rest = list(args.rest)
+    if rest and rest[0] in ("-h", "--help"):
+        args.bench_parser.print_help()
+        return 0
     which = rest.pop(0) if rest and rest[0] in BENCHMARKS else "trade"
     if "--backend" in rest:  # ``bench --backend cuda``: the GPU benchmark (benchmarks/gpu.py)
         i = rest.index("--backend")
@@ -121,10 +151,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", required=True, help="output image (.png; .npy/.npz keep linear radiance)")
     r.add_argument("--radiance", help="also write linear float32 radiance (H, W, 3) to this .npy file")
     r.add_argument("--model", choices=ALL_MODELS, help="override the scene's model")
-    r.add_argument("--exposure", type=float, help="PNG exposure in stops")
+    r.add_argument("--exposure", type=_exposure, help="PNG exposure in stops, or 'auto' (the default of the lit "
+                                                       "models; 0 for emission_absorption and ambient_occlusion)")
     r.add_argument("--tonemap", choices=TONEMAPS, help="PNG tone map")
     r.add_argument("--srgb", action="store_true", help="sRGB-encode the PNG")
-    r.add_argument("--progress", action="store_true", help="show a progress bar")
+    r.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bars per stage: --progress at once, --no-progress never; default: a named bar "
+                        "for each stage that runs longer than 2 s")
     r.add_argument("--backend", choices=BACKENDS,
                    help="where the kernels run (overrides the scene's 'backend'; default auto)")
     r.set_defaults(func=_cmd_render)
@@ -134,11 +167,16 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-n", type=int, default=96, help="grid resolution")
     d.add_argument("--size", type=int, default=400, help="panel size in pixels")
     d.set_defaults(func=_cmd_demo)
-    b = sub.add_parser("bench", help="run a benchmark table: trade (default: every model against the path-traced "
-                                     "reference), ea (EA vs VTK), ambient (frame costs), gpu (CUDA vs CPU; also "
-                                     "'bench --backend cuda'); extra arguments go to it")
-    b.add_argument("rest", nargs=argparse.REMAINDER)
-    b.set_defaults(func=_cmd_bench)
+    b = sub.add_parser("bench", usage="pv-ambient bench [NAME] [OPTIONS]", add_help=False,
+                       help="run a benchmark table (from a source checkout); 'bench NAME --help' lists its options",
+                       description="Run one of the benchmark scripts of benchmarks/ (a source checkout); every "
+                                   "argument after NAME goes to it: 'pv-ambient bench NAME --help' lists its options.",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="benchmarks:\n" + "\n".join(f"  {k:8s} {v}" for k, v in BENCHMARK_HELP.items())
+                              + "\n\n'pv-ambient bench --backend cuda' runs gpu.")
+    b.add_argument("rest", nargs=argparse.REMAINDER, metavar="[NAME] [OPTIONS]",
+                   help=f"NAME is one of {', '.join(BENCHMARKS)} (default trade); OPTIONS go to the benchmark")
+    b.set_defaults(func=_cmd_bench, bench_parser=b)
     from .series import add_cli_parser  # pv-ambient series: time series and orbits (pv_ambient.series)
     add_cli_parser(sub)
     return p
@@ -153,9 +191,12 @@ def main(argv=None) -> int:
         args.rest = extra + list(args.rest)  # `bench --backend cuda ...`: options go to the benchmark
     try:
         return args.func(args)
-    except (ValueError, TypeError, FileNotFoundError, KeyError) as exc:
+    except (ValueError, TypeError, FileNotFoundError, KeyError, MemoryError) as exc:
         print(f"pv-ambient: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("pv-ambient: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

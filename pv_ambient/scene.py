@@ -13,6 +13,7 @@ A scene file is a JSON object. Keys (all but ``volume`` optional)::
      "phase": {"kind": "hg", "g": 0.6},     # "isotropic" | "hg" | "schlick" | "rayleigh"
      "lights": [{"kind": "point", "position": [0, 0, 0], "intensity": [1, 1, 1]},          # W/sr
                 {"kind": "directional", "direction": [0, 0, -1], "irradiance": [1, 1, 1]}],
+                                            # no "lights" key: the default rig (lit models); []: no light
      "camera": {"position": [0, -4, 0], "focal_point": [0, 0, 0], "view_up": [0, 0, 1],
                 "view_angle": 30.0, "parallel_projection": false, "parallel_scale": 1.0},
      "image": {"width": 256, "height": 256},
@@ -21,7 +22,7 @@ A scene file is a JSON object. Keys (all but ``volume`` optional)::
      "background": [0, 0, 0],               # constant background radiance
      "step": null, "seed": 0, "jitter": false,
      "backend": "auto",                     # "auto" | "cpu" | "cuda" (since pv_ambient 0.2.0)
-     "display": {"exposure": 0.0, "tonemap": "clip", "srgb": false}}   # PNG conversion only
+     "display": {"exposure": "auto", "tonemap": "clip", "srgb": false}}   # PNG conversion only
 
 Units (docs/conventions.rst): world units are the grid's; σt in 1/world unit; a point light's intensity in
 W/sr gives irradiance I/d² at distance d; a directional light's irradiance is per unit area;
@@ -31,6 +32,13 @@ W/sr gives irradiance I/d² at distance d; a directional light's irradiance is p
 ``backend`` (added in pv_ambient 0.2.0, optional, format version unchanged: files without it
 render as before) says where the kernels run (:mod:`pv_ambient.backend`); the images of the two
 backends agree to float rounding.
+
+Since pv_ambient 0.3.0 (format version unchanged) a scene without a ``lights`` key gives the lit
+models the default light rig (docs/lights.rst: directional key and fill lights placed from the
+camera), where 0.2.0 rendered them black; ``"lights": []`` still means no light (black, with a
+warning). The PNG's default ``exposure`` is ``"auto"`` for the lit models (docs/display.rst) and
+0 for emission–absorption and ambient occlusion, as before; a number or ``"auto"`` may be given.
+With ``lights`` given, the radiance (``--radiance``) is what 0.2.0 wrote, bit for bit (tested).
 
 Unknown top-level keys are reported with a warning and ignored (a newer file read by an older
 version); unknown keys inside ``camera``, ``lights``, ``transfer_function``, ``image`` and
@@ -44,9 +52,10 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .inputs.validation import check_choice, check_window_size
+from .inputs.validation import check_choice, check_real, check_window_size
 from .backend import BACKENDS
 from .rendering.presets import QUALITIES
+from .rendering.request import check_image_memory
 from .rendering.presets import SCENE_OPTIONS as MODEL_KEYS
 
 SCENE_VERSION = 1
@@ -108,15 +117,16 @@ def parse_scene(data, base_dir=".") -> Scene:
     if "volume" not in data:
         raise ValueError("scene needs a 'volume' (a .vti path or {'dataset': name})")
     base = Path(base_dir)
-    grid = _load_volume(data["volume"], base)
-    rk = {"transfer_function": data.get("transfer_function"), "scalars": data.get("scalars"),
-          "lights": data.get("lights", ()), "preference": data.get("preference", "point"),
-          "nan_policy": data.get("nan_policy", "raise"),
-          "backend": check_choice(data.get("backend", "auto"), "backend", BACKENDS)}
     image = data.get("image", {"width": 512, "height": 512})
     if not isinstance(image, dict) or set(image) - {"width", "height"}:
         raise ValueError(f"image must be {{'width': int, 'height': int}}, got {image!r}")
     size = check_window_size((image.get("width", 512), image.get("height", 512)), "image width/height")
+    check_image_memory(size, data.get("model", "emission_absorption"))  # before the volume is read
+    grid = _load_volume(data["volume"], base)
+    rk = {"transfer_function": data.get("transfer_function"), "scalars": data.get("scalars"),
+          "lights": data.get("lights"), "preference": data.get("preference", "point"),
+          "nan_policy": data.get("nan_policy", "raise"),
+          "backend": check_choice(data.get("backend", "auto"), "backend", BACKENDS)}
     quality = check_choice(data.get("quality", "balanced"), "quality", QUALITIES)
     kw = {"camera": data.get("camera"), "window_size": size, "model": data.get("model", "emission_absorption"),
           "background": data.get("background", (0.0, 0.0, 0.0)), "seed": data.get("seed", 0),
@@ -131,6 +141,8 @@ def parse_scene(data, base_dir=".") -> Scene:
     display = data.get("display", {})
     if not isinstance(display, dict) or set(display) - {"exposure", "tonemap", "srgb"}:
         raise ValueError(f"display must hold only exposure, tonemap, srgb; got {display!r}")
+    if display.get("exposure", "auto") != "auto":
+        check_real(display["exposure"], "display exposure (a number of stops or 'auto')")
     return Scene(grid=grid, renderer_kwargs=rk, render_kwargs=kw, display=dict(display))
 
 
@@ -146,13 +158,17 @@ def load_scene(path) -> Scene:
     return scene
 
 
-def render_scene(scene, *, progress_bar=False):
-    """Render a :class:`Scene`, a scene dict, or a path to a scene file → RenderResult."""
+def render_scene(scene, *, progress_bar=None):
+    """Render a :class:`Scene`, a scene dict, or a path to a scene file → RenderResult
+    (``progress_bar`` as :meth:`pv_ambient.Renderer.render`: None shows a bar per stage that runs
+    longer than 2 s)."""
     from .rendering.renderer import Renderer
+    from .rendering.request import warn_unused_lights
 
     if isinstance(scene, (str, Path)):
         scene = load_scene(scene)
     elif isinstance(scene, dict):
         scene = parse_scene(scene)
+    warn_unused_lights(scene.renderer_kwargs.get("lights"), scene.render_kwargs.get("model"))
     r = Renderer(scene.grid, **scene.renderer_kwargs)
     return r.render(progress_bar=progress_bar, **scene.render_kwargs)

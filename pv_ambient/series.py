@@ -68,11 +68,11 @@ from pathlib import Path
 import numpy as np
 
 from .inputs.camera import Camera, as_camera, default_camera
-from .inputs.lights import as_lights
+from .inputs.lights import as_lights, default_lights
 from .inputs.transfer import as_transfer_function
 from .inputs.validation import check_choice, check_int, check_real
 from .rendering.cache import SceneCache
-from .rendering.presets import ALL_MODELS, MODEL_OPTIONS
+from .rendering.presets import ALL_MODELS, MODEL_OPTIONS, MODEL_SPECS
 
 #: File name of frame ``i`` without its suffix.
 FRAME_STEM = "frame_{:04d}"
@@ -409,9 +409,11 @@ def render_frame(spec: FrameSpec, index: int, volume, key: str, camera, out_dir:
         t_render = time.perf_counter() - t
         _WORKER["tables"].share(r.cache)
         t = time.perf_counter()
+        display = dict(spec.display)
+        display["exposure"] = res.display_exposure(display.get("exposure"))  # "auto" resolved: reported
         for path in frame_outputs(out_dir, index, spec.radiance):
-            _write_atomic(res, path, spec.run, spec.display)
-        rec.update(reused=reused, model=res.metadata.get("model"),
+            _write_atomic(res, path, spec.run, display)
+        rec.update(reused=reused, model=res.metadata.get("model"), exposure=display["exposure"],
                    times={"load": t_load, "classify": t_build, "prepare": res.metadata.get("time_prepare", 0.0),
                           "render": t_render, "write": time.perf_counter() - t})
     except Exception as exc:  # noqa: BLE001 - the frame's error is reported, the others go on
@@ -520,7 +522,7 @@ def _remove_parts(out_dir: Path, run: str | None = None) -> None:
         p.unlink(missing_ok=True)
 
 
-def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera=None,
+def render_series(volumes, *, out_dir, transfer_function=None, lights=None, camera=None,
                   model="emission_absorption", cameras=None, client=None, scalars=None, component=None,
                   preference="point", nan_policy="raise", backend="auto", radiance=False, display=None,
                   overwrite=False, movie=None, fps=10, workers=None, numba_threads=None, progress_bar=True,
@@ -534,7 +536,9 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
     out_dir : str or Path
         Folder of ``frame_0000.png``, … (created when missing).
     transfer_function, lights, scalars, component, preference, nan_policy, backend
-        As :class:`pv_ambient.Renderer`; the same for every frame (checked once, here).
+        As :class:`pv_ambient.Renderer`; the same for every frame (checked once, here). ``lights``
+        None (not given): a lit model gets the default light rig (docs/lights.rst), placed once from
+        the first frame's camera, so an orbit keeps its lighting; ``()``: no light.
     camera : Camera, pyvista.Camera, dict or list, optional
         The camera of every frame (PyVista's default view of each volume when None).
     model : str, default: "emission_absorption"
@@ -548,7 +552,10 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
     radiance : bool, default: False
         Also write ``frame_NNNN.npy`` (linear float32 ``(H, W, 3)``, as ``render --radiance``).
     display : dict, optional
-        PNG conversion (``exposure``, ``tonemap``, ``srgb``), as the scene's ``display``.
+        PNG conversion (``exposure``, ``tonemap``, ``srgb``), as the scene's ``display``. Without
+        ``exposure`` a lit model's PNGs take the ``"auto"`` exposure of the first frame rendered
+        (rendered before the others), the same for every frame: no flicker. The ``.npy`` radiance
+        never depends on it.
     overwrite : bool, default: False
         Render every frame again; by default frames whose files all exist are skipped.
     movie : str or Path, optional
@@ -623,8 +630,15 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
     if numba_threads is not None:
         numba_threads = check_int(numba_threads, "numba_threads", lo=1)
     run = uuid.uuid4().hex[:12]
+    if lights is None and MODEL_SPECS[model].lit:
+        # the default light rig (docs/lights.rst), placed once from the first frame's camera so that
+        # every frame, on every worker, is lit the same (directional lights: the bounds do not matter)
+        first = cams[0] if cams[0] is not None else as_camera(None, window_size=(1, 1),
+                                                              bounds=(-1.0, 1.0, -1.0, 1.0, -1.0, 1.0))[0]
+        lights = default_lights(first)
     renderer_kwargs = {"transfer_function": as_transfer_function(transfer_function), "scalars": scalars,
-                       "component": component, "lights": as_lights(lights), "preference": preference,
+                       "component": component, "lights": as_lights(lights if lights is not None else ()),
+                       "preference": preference,
                        "nan_policy": nan_policy, "backend": backend}
     check_choice(preference, "preference", ("point", "cell"))
     check_choice(nan_policy, "nan_policy", ("raise", "vacuum"))
@@ -657,7 +671,19 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
 
     n_workers = 1
     bar = tqdm(total=len(todo), desc="frames", unit="frame", disable=not progress_bar or not todo)
+    # PNG exposure not given: "auto" for the lit models — resolved on the first frame rendered and
+    # kept for the others, so the frames do not flicker (pass display={"exposure": …} to fix it)
+    fix_exposure = "exposure" not in display and MODEL_SPECS[model].lit and bool(todo)
     try:
+        if fix_exposure:
+            spec = FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance), numba_threads, run)
+            rec = render_frame(spec, todo[0], vols[todo[0]], keys[todo[0]], cams[todo[0]], str(out)) if sync else \
+                _first_on_cluster(client, workers, spec, todo[0], vols, keys, cams, out)
+            record(rec)
+            bar.update()
+            todo = todo[1:]
+            if rec.get("exposure") is not None:
+                display = dict(display, exposure=rec["exposure"])
         if sync or not todo:
             spec = FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance), numba_threads, run)
             try:
@@ -688,6 +714,25 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=(), camera
     if movie is not None and result.n_failed == 0:
         result.movie = write_movie(result.paths, movie, fps=fps)
     return result
+
+
+def _first_on_cluster(client, workers, spec, i, vols, keys, cams, out):
+    """Frame ``i`` rendered alone (on the cluster when one is given: its worker keeps the renderer),
+    its record returned: the frame whose exposure the others take."""
+    if client is None:  # no cluster yet: render it here (the cluster starts for the rest)
+        try:
+            return render_frame(spec, i, vols[i], keys[i], cams[i], str(out))
+        finally:
+            with _WORKER_LOCK:
+                _WORKER["renderers"].clear()
+    c, owned, _, _ = _get_client(client, workers)
+    try:
+        v = vols[i] if isinstance(vols[i], str) else (vols[i] if type(vols[i]).__name__ == "Volume"
+                                                      else PackedImage.of(vols[i]))
+        return c.submit(render_frame, spec, i, v, keys[i], cams[i], str(out), pure=False).result()
+    finally:
+        for thing in owned:
+            thing.close()
 
 
 def _run_on_cluster(c, spec, todo, vols, keys, memory, cams, out, names, record, bar):

@@ -66,7 +66,8 @@ def test_albedo_zero_is_single_scattering_and_ea():
 
 def test_no_lights_no_emission_is_black():
     r = renderer(physical_grid(), lights=())
-    out = r.render(camera=CAM, window_size=SIZE, model="ambient_scattering", quality="preview")
+    with pytest.warns(UserWarning, match=r"rendered black: no lights were given"):  # since 0.3.0
+        out = r.render(camera=CAM, window_size=SIZE, model="ambient_scattering", quality="preview")
     assert np.all(out.radiance == 0) and out.alpha.max() > 0.5
 
 
@@ -140,7 +141,8 @@ def test_auto_rules():
     grid = physical_grid(n=9, albedo=0.8, noise=False)
     dark = PointLight((0, -1.5, 0), intensity=0.0)
     r = renderer(grid, lights=[dark])
-    res = r.render(camera=CAM, window_size=SIZE, model="auto")
+    with pytest.warns(UserWarning, match="none of the 1 lights reaches the volume"):
+        res = r.render(camera=CAM, window_size=SIZE, model="auto")
     assert res.metadata["model"] == "single_scattering" and res.metadata["lights"] == 0
     # an opaque, non-scattering sheet between the light and the only scattering medium
     wall = physical_grid(n=9, sigma=0.0, albedo=0.8)

@@ -124,7 +124,11 @@ def test_when_baking_applies():
     assert not r.render(model="single_scattering", quality="accurate", **kw).metadata["baked_lights"]
     assert not r.render(model="single_scattering", phase=0.5, **kw).metadata["baked_lights"]  # anisotropic
     assert not r.render(model="emission_absorption", **kw).metadata["baked_lights"]
-    assert not renderer(lights=()).render(model="single_scattering", **kw).metadata["baked_lights"]
+    with pytest.warns(UserWarning, match="rendered black"):  # no lights: nothing to bake
+        assert not renderer(lights=()).render(model="single_scattering", **kw).metadata["baked_lights"]
+    # the default light rig (no lights given): directional, isotropic phase, baked
+    assert pa.Renderer(physical_grid(), transfer_function=pa.TransferFunction.physical()).render(
+        model="single_scattering", **kw).metadata["baked_lights"]
 
 
 def test_diffusion_folded_into_the_bake_equals_its_per_sample_lookup(monkeypatch):

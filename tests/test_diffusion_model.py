@@ -16,7 +16,8 @@ def test_albedo_zero_is_single_scattering():
 
 
 def test_no_lights_is_black():
-    out = render(renderer(physical_grid(), lights=()), "diffusion")
+    with pytest.warns(UserWarning, match=r"rendered black: no lights were given"):  # since 0.3.0
+        out = render(renderer(physical_grid(), lights=()), "diffusion")
     assert np.all(out == 0)
 
 

@@ -127,12 +127,13 @@ def test_nan_in_data_is_refused_by_default():
     assert np.all(np.isfinite(res.radiance))
 
 
-def test_flat_grid_renders_background():
+def test_flat_grid_is_a_clear_error():
+    """A 2-D grid rendered nothing (only the background) until 0.3.0; now an error says why and what to do."""
     g = pv.ImageData(dimensions=(5, 5, 1))
     g["d"] = np.ones(25)
-    res = pa.render(g, window_size=(8, 8), background=(0.1, 0.1, 0.1),
-                    transfer_function=pa.TransferFunction(density_scale=1.0))
-    assert np.all(res.alpha == 0) and np.allclose(res.radiance, 0.1)
+    with pytest.raises(ValueError, match=r"the grid is 2-D \(dimensions \(5, 5, 1\): one point along z\), so the "
+                                         r"volume has no thickness.*dimensions \(5, 5, 2\) holding the layer twice"):
+        pa.render(g, window_size=(8, 8), transfer_function=pa.TransferFunction(density_scale=1.0))
 
 
 def test_unknown_model_and_option():

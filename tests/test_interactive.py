@@ -26,6 +26,7 @@ def scene():
 
 def _plotter():
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")  # the picture is then the volume alone (no plotter background behind it)
     CAMERA.to_vtk(pl.camera)
     pl.camera_set = True
     return pl
@@ -51,8 +52,9 @@ def test_drag_renders_reduced_and_the_resting_frame_is_a_normal_render(scene, mo
     win.Render()
     assert not vol.moving and vol.renders == 5 and vol.result.window_size == SIZE
     ref = pa.render(grid, transfer_function=tf, lights=lights, model=model, camera=pl.camera, window_size=SIZE)
-    assert np.array_equal(vol.result.radiance, ref.radiance)
-    assert np.array_equal(texture_image(vol.actor.GetTexture()), ref.to_uint8())
+    assert np.array_equal(vol.volume_result.radiance, ref.radiance)
+    # the plotter keeps the exposure its first picture resolved ("auto" for a lit model)
+    assert np.array_equal(texture_image(vol.actor.GetTexture()), ref.to_uint8(exposure=vol.display["exposure"]))
     win.Render()
     assert vol.renders == 5  # at rest nothing changes: no re-render
     pl.close()

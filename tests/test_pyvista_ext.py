@@ -248,8 +248,9 @@ def test_path_traced_interactive_refines_while_the_camera_rests():
     assert vol.result.metadata["spp"] == 4
     assert vol.refine() and vol.refine() and not vol.refine()  # 8 samples: done
     mean = np.mean([pt(s).radiance for s in range(4)], axis=0)
-    np.testing.assert_allclose(vol.result.radiance, mean, rtol=1e-5, atol=1e-6)
-    assert vol.result.std_error.mean() < pt(0).std_error[np.isfinite(pt(0).std_error)].mean()
+    # the volume alone (vol.result is it composited over the plotter's background, since 0.3.0)
+    np.testing.assert_allclose(vol.volume_result.radiance, mean, rtol=1e-5, atol=1e-6)
+    assert vol.volume_result.std_error.mean() < pt(0).std_error[np.isfinite(pt(0).std_error)].mean()
     pl.camera.Azimuth(30.0)
     pl.render()
     assert vol.result.metadata["spp"] == 2  # a camera move starts over
@@ -379,7 +380,8 @@ def test_ctrl_c_between_tiles_and_batches_propagates_and_the_renderer_survives(m
             seen = _interrupt_after(m, 2)
             with pytest.raises(KeyboardInterrupt):
                 r.render(window_size=(12, 8), model=model, progress_bar=True, **extra)
-            assert seen["closed"] == 1, f"{model}: the bar was not closed"
+            # every bar that ran was closed (since 0.3.0 a lit model has one per stage: light volumes, ray cast)
+            assert seen["closed"] == len({id(b) for b in seen["bars"]}) >= 1, f"{model}: a bar was not closed"
     # the renderer's caches were not left half-written: the same pictures again
     np.testing.assert_array_equal(r.render(window_size=(12, 8)).radiance, ref_ea.radiance)
     np.testing.assert_array_equal(r.render(window_size=(12, 8), model="path_traced", samples_per_pixel=4).radiance,

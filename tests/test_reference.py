@@ -637,6 +637,8 @@ def test_time_budget_spends_the_budget_on_the_path_tracer():
     assert spp[0.05] >= 1 and spp[1.0] >= 4 * spp[0.05]
     with pytest.raises(ValueError, match="time_budget chooses the model"):
         r.render(window_size=(8, 8), model="ambient_scattering", time_budget=1.0)
-    # nothing to scatter: the budget does not buy a path tracer
-    dark = pa.Renderer(datasets.cloud(n=16))
-    assert dark.render(window_size=(8, 8), model="auto", time_budget=1.0).metadata["model"] == "single_scattering"
+    # nothing to scatter (no light, lights=(); leaving lights out gives the default rig since 0.3.0):
+    # the budget does not buy a path tracer
+    dark = pa.Renderer(datasets.cloud(n=16), lights=())
+    with pytest.warns(UserWarning, match="rendered black: no lights were given"):
+        assert dark.render(window_size=(8, 8), model="auto", time_budget=1.0).metadata["model"] == "single_scattering"

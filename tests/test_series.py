@@ -57,8 +57,10 @@ def steps(tmp_path_factory):
 
 
 def scene_dict(volume, model, size=(32, 24), **extra):
+    lit = model != "emission_absorption"  # lights given to EA would (rightly) warn that it ignores them
     return {"version": 1, "volume": str(volume), "transfer_function": TF, "camera": CAMERA,
-            "lights": [{"kind": "point", "position": [0.0, 0.5, 1.6], "intensity": [3.0, 3.0, 3.0]}],
+            **({"lights": [{"kind": "point", "position": [0.0, 0.5, 1.6], "intensity": [3.0, 3.0, 3.0]}]}
+               if lit else {}),
             "image": {"width": size[0], "height": size[1]}, "model": model, "quality": "preview",
             "display": {"exposure": 1.0, "tonemap": "reinhard"}, **extra}
 
@@ -283,6 +285,29 @@ def test_in_memory_volumes_on_the_cluster_equal_serial(client, tmp_path):
     assert a.n_rendered == b.n_rendered == 3
     for i in range(3):
         np.testing.assert_array_equal(np.load(a.frames[i].paths[0]), np.load(b.frames[i].paths[0]))
+
+
+def test_orbit_without_lights_or_exposure_keeps_its_lighting_and_exposure(client, tmp_path):
+    # lights not given: the default rig placed once from the first camera (every frame, every
+    # worker); exposure not given: the first frame's "auto" exposure for every PNG (no flicker)
+    from pv_ambient.inputs.lights import default_lights
+
+    grid = datasets.cloud(n=16, seed=2)
+    cams = orbit(grid, 4, elevation=20.0, start=CAMERA)
+    res = render_series(grid, cameras=cams, out_dir=tmp_path / "o", client=client, radiance=True,
+                        progress_bar=False, transfer_function=TF, model="single_scattering", window_size=(20, 16),
+                        quality="preview")
+    assert res.n_rendered == 4 and res.n_failed == 0
+    rig = default_lights(cams[0])
+    refs = [pa.render(grid, transfer_function=TF, lights=rig, camera=c, window_size=(20, 16),
+                      model="single_scattering", quality="preview") for c in cams]
+    e0 = refs[0].display_exposure("auto")
+    autos = [r.display_exposure("auto") for r in refs]
+    assert max(autos) - min(autos) > 1e-3  # per-frame auto exposures differ: fixing it matters
+    for i, ref in enumerate(refs):
+        png, rad = frame(tmp_path / "o", i)
+        np.testing.assert_array_equal(rad, ref.radiance)
+        np.testing.assert_array_equal(png, ref.to_uint8(exposure=e0))
 
 
 @pytest.mark.parametrize("kwargs, err, match", [

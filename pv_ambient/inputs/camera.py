@@ -67,7 +67,9 @@ class Camera:
         fwd = (foc - pos) / np.linalg.norm(foc - pos)
         right = np.cross(fwd, up)
         if np.linalg.norm(right) < 1e-9 * np.linalg.norm(up):
-            raise ValueError(f"camera view_up {tuple(up)} is parallel to the view direction {tuple(fwd)}")
+            raise ValueError(f"camera view_up {tuple(float(v) for v in up)} is parallel to the view direction "
+                             f"{tuple(float(v) for v in fwd)}: give a view_up across the view (VTK would leave "
+                             "the image's rotation undefined)")
         angle = check_real(self.view_angle, "camera view_angle", lo=0.0, hi=180.0, lo_open=True, hi_open=True)
         scale = check_real(self.parallel_scale, "camera parallel_scale", lo=0.0, lo_open=True)
         object.__setattr__(self, "position", tuple(pos))
@@ -185,21 +187,43 @@ class Camera:
         return cam
 
 
-def default_camera(bounds) -> Camera:
-    """PyVista's default view of ``bounds``: isometric direction (1, 1, 1), z up, reset to fit.
+#: PyVista's camera-position strings (``Plotter.camera_position = "xy"`` …, pyvista's
+#: ``view_vectors``): the direction from the focal point to the camera, and the view up.
+VIEW_STRINGS = {
+    "iso": ((1.0, 1.0, 1.0), (0.0, 0.0, 1.0)),
+    "xy": ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)), "yx": ((0.0, 0.0, -1.0), (1.0, 0.0, 0.0)),
+    "xz": ((0.0, -1.0, 0.0), (0.0, 0.0, 1.0)), "zx": ((0.0, 1.0, 0.0), (1.0, 0.0, 0.0)),
+    "yz": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)), "zy": ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+}
+
+
+def default_camera(bounds, view="iso") -> Camera:
+    """PyVista's view of ``bounds`` named ``view`` (:data:`VIEW_STRINGS`; default the isometric
+    direction (1, 1, 1), z up), reset to fit.
 
     Uses VTK's own ``vtkRenderer.ResetCamera(bounds)`` (no window needed), so the framing is
-    exactly what ``Plotter.show()`` would pick.
+    exactly what ``Plotter.show()`` (or ``Plotter.camera_position = view``) would pick.
+
+    Examples
+    --------
+    >>> from pv_ambient.inputs.camera import default_camera
+    >>> cam = default_camera((-1, 1, -1, 1, -1, 1), "xy")
+    >>> [round(float(v), 6) for v in cam.focal_point], [float(v) for v in cam.view_up], bool(cam.position[2] > 1)
+    ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], True)
     """
     from vtkmodules.vtkRenderingCore import vtkRenderer
 
+    key = view.lower() if isinstance(view, str) else view
+    if key not in VIEW_STRINGS:
+        raise ValueError(f"camera {view!r} is not one of PyVista's camera strings {list(VIEW_STRINGS)}")
+    direction, view_up = VIEW_STRINGS[key]
     b = [float(x) for x in bounds]
     center = np.array([(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2])
     ren = vtkRenderer()
     cam = ren.GetActiveCamera()
     cam.SetFocalPoint(*center)
-    cam.SetPosition(*(center + 1.0))
-    cam.SetViewUp(0.0, 0.0, 1.0)
+    cam.SetPosition(*(center + np.array(direction)))
+    cam.SetViewUp(*view_up)
     ren.ResetCamera(b)
     return Camera.from_vtk(cam)
 
@@ -209,8 +233,10 @@ def as_camera(camera, *, window_size=None, bounds=None):
 
     Parameters
     ----------
-    camera : Camera, pyvista.Camera, vtkCamera, pyvista.Plotter, dict, list or None
-        ``None`` gives PyVista's default isometric view of ``bounds``. A plotter contributes its
+    camera : Camera, pyvista.Camera, vtkCamera, pyvista.Plotter, dict, list, str or None
+        ``None`` gives PyVista's default isometric view of ``bounds``; a string ``"iso"``,
+        ``"xy"``, ``"xz"``, ``"yz"``, ``"yx"``, ``"zx"`` or ``"zy"`` the view PyVista's
+        ``Plotter.camera_position`` gives it. A plotter contributes its
         active camera and, unless ``window_size`` is given, its window size; a plotter whose
         camera was never set gets PyVista's default camera first (as ``show()`` would). A list
         ``[position, focal_point, view_up]`` is PyVista's ``camera_position``; a dict is the JSON
@@ -225,10 +251,10 @@ def as_camera(camera, *, window_size=None, bounds=None):
     tuple of (Camera, (int, int))
     """
     size = None
-    if camera is None:
+    if camera is None or isinstance(camera, str):
         if bounds is None:
-            raise ValueError("camera is None and no bounds are known to place a default camera")
-        cam = default_camera(bounds)
+            raise ValueError(f"camera is {camera!r} and no bounds are known to place it")
+        cam = default_camera(bounds, "iso" if camera is None else camera)
     elif isinstance(camera, Camera):
         cam = camera
     elif isinstance(camera, dict):
@@ -250,7 +276,8 @@ def as_camera(camera, *, window_size=None, bounds=None):
         size = (max(1, int(round((x1 - x0) * w))), max(1, int(round((y1 - y0) * h))))
     else:
         raise TypeError("camera must be a pv_ambient.Camera, pyvista.Camera, vtkCamera, pyvista.Plotter, "
-                        f"a dict, [position, focal_point, view_up] or None; got {type(camera).__name__}")
+                        f"a dict, [position, focal_point, view_up], one of {list(VIEW_STRINGS)} or None; "
+                        f"got {type(camera).__name__}")
     if window_size is not None:
         size = check_window_size(window_size)
     elif size is None:

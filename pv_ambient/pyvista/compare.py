@@ -37,7 +37,8 @@ def show_panels(results, labels, path, *, display=None, font_size=12, off_screen
         Where the screenshot (PNG) is written.
     display : dict or sequence of dict, optional
         Display conversion (``exposure``, ``tonemap``, ``srgb``, as :meth:`RenderResult.to_uint8`):
-        one dict for every panel, or one per panel. None: VTK's convention (no exposure, clipped).
+        one dict for every panel, or one per panel. None: each result's default (the lit
+        models at ``exposure="auto"``, emission–absorption as VTK shows it: docs/display.rst).
     font_size : int, default: 12
         Label font size; labels sit ``2 * font_size`` pixels below the top of their panel.
     off_screen : bool, optional, default: True
@@ -93,7 +94,7 @@ def show_panels(results, labels, path, *, display=None, font_size=12, off_screen
 
 
 def compare(grid, transfer_function=None, *, camera=None, models=("emission_absorption",), window_size=(400, 400),
-            lights=(), scalars=None, mapper="gpu", step=None, titles=True, display=None, renderer=None,
+            lights=None, scalars=None, mapper="gpu", step=None, titles=True, display=None, renderer=None,
             off_screen=None, **render_options):
     """Side by side: VTK's ``add_volume`` with the same TF, then our render(s), one per subplot.
 
@@ -108,6 +109,8 @@ def compare(grid, transfer_function=None, *, camera=None, models=("emission_abso
         Any camera :func:`pv_ambient.render` accepts; PyVista's default view when None.
     models : sequence of str
         Our models, one panel each.
+    lights : sequence, optional
+        As :func:`pv_ambient.render` (not given: the default light rig for the lit models).
     window_size : (int, int)
         Size of *each* panel.
     mapper : {"gpu", "fixed_point", "smart"}, default: "gpu"
@@ -116,7 +119,8 @@ def compare(grid, transfer_function=None, *, camera=None, models=("emission_abso
         Label each panel.
     display : dict, optional
         Display conversion of our panels (``exposure``, ``tonemap``, ``srgb``), for all panels,
-        or per model: ``{"ambient_scattering": {"exposure": 2.0}}``.
+        or per model: ``{"ambient_scattering": {"exposure": 2.0}}``; each result's default when
+        None (``exposure="auto"`` for the lit models, VTK's convention for emission–absorption).
     off_screen : bool, optional
         Passed to ``pyvista.Plotter`` (PyVista's global setting when None).
 

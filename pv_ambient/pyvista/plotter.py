@@ -17,6 +17,7 @@ from ..inputs.camera import Camera
 from ..inputs.validation import check_int, check_real, check_window_size
 from ..rendering.presets import DEFAULT_SPP
 from ..rendering.renderer import Renderer
+from ..rendering.request import warn_unused_lights
 from ..rendering.result import RenderResult
 from ..stages.reference import Accumulator
 from .display import DISPLAY_KEYS
@@ -181,6 +182,25 @@ class AmbientVolume:
     def _state(self, cam, size):
         return (_camera_key(cam), tuple(size), tuple((id(a), a.GetRedrawMTime()) for a in self.occluders))
 
+    @property
+    def _own_background(self):
+        """Whether ``background=`` was given (a radiance painted behind the volume); otherwise
+        the volume is composited over the plotter's own background colour."""
+        return "background" in self.options
+
+    def _background_image(self, size):
+        """``(H, W, 3)`` display colour of the renderer's background (VTK's gradient, bottom
+        colour to top colour, when the renderer has one)."""
+        w, h = size
+        ren = self.vtk_renderer
+        bottom = np.array(ren.GetBackground(), dtype=np.float64)
+        if ren.GetGradientBackground():
+            top = np.array(ren.GetBackground2(), dtype=np.float64)
+            t = ((h - 1 - np.arange(h) + 0.5) / h)[:, None]  # 0 at the bottom row, top row first
+            rows = bottom + t * (top - bottom)
+            return np.broadcast_to(rows[:, None, :], (h, w, 3)).copy()
+        return np.broadcast_to(bottom, (h, w, 3)).copy()
+
     # -- rendering -------------------------------------------------------------------------------
     def update(self, force=False):
         """Re-render if the camera, the viewport size or the opaque geometry changed since the last
@@ -213,14 +233,26 @@ class AmbientVolume:
             ray_end = ray_distance_from_depth(z, near, far, cam, size)
             t_geometry = time.perf_counter() - t0
             volume = self._render_volume(cam, size, background=(0.0, 0.0, 0.0), ray_end=ray_end)
-            shown = composite_over_geometry(volume, rgba[..., :3], rgba[..., 3],
+            if "exposure" not in self.display:
+                self.display["exposure"] = volume.display_exposure()
+            colour, coverage = rgba[..., :3], rgba[..., 3]
+            if not self._own_background:  # the plotter's background behind the meshes
+                colour = colour + (1.0 - coverage)[..., None] * self._background_image(size)
+                coverage = np.ones_like(coverage)
+            shown = composite_over_geometry(volume, colour, coverage,
                                             background=self.options.get("background", (0.0, 0.0, 0.0)),
                                             display=self.display)
             shown.metadata.update(occluders=len(occluders), time_geometry=t_geometry)
         elif self.model == "path_traced" and self.interactive:
             shown = volume = self._first_pass(cam, size)
         else:
-            shown = volume = self._render_volume(cam, size)
+            shown = volume = self._render_volume(cam, size, **({} if self._own_background else
+                                                               {"background": (0.0, 0.0, 0.0)}))
+        if "exposure" not in self.display:  # "auto" resolved once, on the first picture: no flicker
+            self.display["exposure"] = volume.display_exposure()
+        if not occluders and not self._own_background:
+            shown = composite_over_geometry(volume, self._background_image(size), np.ones(size[::-1]),
+                                            display=self.display)
         self.volume_result, self.result, self.ray_end, self.geometry_image = volume, shown, ray_end, rgba
         self._show(shown)
         self.renders += 1
@@ -280,7 +312,10 @@ class AmbientVolume:
             return False
         res = self._accumulate(*self._refine_view)
         self.volume_result = self.result = res
-        self._show(res)
+        if not self._own_background:
+            self.result = composite_over_geometry(res, self._background_image(self._refine_view[1]),
+                                                  np.ones(self._refine_view[1][::-1]), display=self.display)
+        self._show(self.result)
         self.renders += 1
         if render:
             self.plotter.render()
@@ -355,7 +390,7 @@ class AmbientVolume:
             self._pass = None
 
 
-def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", transfer_function=None, lights=(),
+def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", transfer_function=None, lights=None,
                        scalars=None, display=None, interactive=False, occlusion=True, renderer=None,
                        interactive_samples=4, refine_interval=100, interactive_resolution=0.5, **render_options):
     """Render ``grid`` with the plotter's camera and window size and show it in the plotter, in
@@ -390,9 +425,12 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     grid : pyvista.ImageData, optional
         The volume (never modified); may be omitted when ``renderer`` is given.
     model, transfer_function, lights, scalars
-        As :func:`pv_ambient.render`.
+        As :func:`pv_ambient.render` (``lights`` not given: the default light rig for the lit
+        models, placed from the plotter's camera at the first picture and kept).
     display : dict, optional
-        Keywords for :meth:`RenderResult.to_uint8` (``exposure``, ``tonemap``, ``srgb``).
+        Keywords for :meth:`RenderResult.to_uint8` (``exposure``, ``tonemap``, ``srgb``). An
+        exposure not given (``"auto"`` for the lit models, 0 otherwise) is resolved on the first
+        picture and then kept (``display["exposure"]``), so camera moves do not flicker.
     interactive : bool, default: False
         Re-render whenever the plotter draws a frame whose camera, viewport size or opaque
         meshes changed since the last picture (an observer on the render window's
@@ -421,8 +459,10 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         Interactive mode: the picture's resolution per axis while the camera moves, as a fraction
         of the window's, in [0.5, 1] (1: always full resolution).
     **render_options
-        As :meth:`pv_ambient.Renderer.render` (``background`` is the radiance where there is
-        neither volume nor geometry).
+        As :meth:`pv_ambient.Renderer.render`. Without ``background`` the volume is composited
+        over the plotter's own background (its colour, or its gradient), as VTK's ``add_volume``
+        is, so a theme's white background stays white; ``background=`` instead paints that
+        radiance where there is neither volume nor geometry.
 
     Returns
     -------
@@ -466,6 +506,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     if renderer is None:
         if grid is None:
             raise TypeError("add_ambient_volume needs a grid (or a pv_ambient.Renderer as renderer=)")
+        warn_unused_lights(lights, model)
         renderer = Renderer(grid, transfer_function=transfer_function, scalars=scalars, lights=lights)
     elif not isinstance(renderer, Renderer):
         raise TypeError(f"renderer must be a pv_ambient.Renderer, got {type(renderer).__name__}")

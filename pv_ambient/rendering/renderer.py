@@ -12,16 +12,17 @@ from __future__ import annotations
 
 import copy
 import time
+import warnings
 
 import numpy as np
 
 from ..backend import BACKENDS, resolve_backend, run_raycast
 from ..inputs.camera import as_camera
 from ..inputs.grid import Volume, volume_from_image
-from ..inputs.lights import as_lights, pack_lights
+from ..inputs.lights import as_lights, needs_camera, pack_lights
 from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
-from ..inputs.validation import check_choice, check_int, check_real, check_rgb
+from ..inputs.validation import check_choice, check_int, check_real, check_rgb, check_window_size
 from ..stages.reference import RR_DEPTH
 from .cache import SceneCache
 from .presets import (
@@ -39,7 +40,8 @@ from .presets import (
     QUALITY_PRESETS,
     step_for,
 )
-from .request import RenderRequest, check_ray_end
+from .request import (RenderRequest, check_image_memory, check_ray_end, check_thickness, compile_notice, given_options,
+                      stage_bar, warn_black, warn_unused_lights, warn_unused_options)
 from .result import RenderResult
 from .stages import NO_GRID, SceneStages
 
@@ -53,14 +55,19 @@ class Renderer(SceneStages):
     Parameters
     ----------
     grid : pyvista.ImageData, vtkImageData or pv_ambient.inputs.grid.Volume
-        The volume. Never modified.
+        The volume. Never modified. It needs a thickness: a 2-D grid (one point along an axis)
+        or a single point is a ValueError that says how to give it one.
     transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
         How scalars become optical properties; PyVista's defaults when None.
     scalars : str, optional
         Array to classify (the active scalars when None).
     component : int, optional
         Component of a multi-component array (magnitude when None).
-    lights : sequence of PointLight, DirectionalLight or dict, optional
+    lights : sequence of PointLight, DirectionalLight, pyvista.Light or dict, optional
+        None (not given): the lit models get the default light rig (docs/lights.rst), placed
+        from the camera of the first lit render and kept (a camera move does not relight);
+        ``()``: no light (lit models render black, with a warning). ``lights`` holds the
+        lights in use (empty until a rig or a pyvista head/camera light is placed).
     preference : {"point", "cell"}, default: "point"
         Which data to use when both exist.
     nan_policy : {"raise", "vacuum"}, default: "raise"
@@ -76,18 +83,20 @@ class Renderer(SceneStages):
     (24, 32, 3)
     """
 
-    def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=(),
+    def __init__(self, grid, *, transfer_function=None, scalars=None, component=None, lights=None,
                  preference="point", nan_policy="raise", backend="auto"):
         check_choice(preference, "preference", ("point", "cell"))
         check_choice(backend, "backend", BACKENDS)
         self.backend = backend
         self.volume = grid if isinstance(grid, Volume) else volume_from_image(grid, preference=preference)
+        check_thickness(self.volume.geometry, getattr(grid, "dimensions", None))
         self.transfer_function = as_transfer_function(transfer_function)
         t = time.perf_counter()
-        self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
-                                                     nan_policy=nan_policy)
+        with stage_bar(None, "classify"):
+            self.optics = self.transfer_function.resolve(self.volume, scalars=scalars, component=component,
+                                                         nan_policy=nan_policy)
         self.timings = {"classify": time.perf_counter() - t}
-        self.lights = as_lights(lights)
+        self.set_lights(lights)
         self.cache = SceneCache()
         self._device = None  # backend.DeviceCache once the CUDA backend has run
 
@@ -130,8 +139,24 @@ class Renderer(SceneStages):
         return step_for(quality, np.min(self.geometry.spacing))
 
     def set_lights(self, lights):
-        """Replace the lights; cached volumes of lights that stay are kept (a relight)."""
-        self.lights = as_lights(lights)
+        """Replace the lights; cached volumes of lights that stay are kept (a relight). None: the
+        default rig, placed at the next lit render from its camera (as pyvista head and camera
+        lights are)."""
+        self.light_rig = "default" if lights is None else "given"
+        self._lights_pending = needs_camera(lights)
+        self._light_spec = lights if self._lights_pending else None
+        self.lights = () if self._lights_pending else as_lights(lights, center=self._center())
+
+    def place_lights(self, camera):
+        """Place lights that wait for a camera (the default rig, pyvista head/camera lights) with
+        ``camera``, once; returns :attr:`lights`. Every lit render calls it with its camera."""
+        if self._lights_pending:
+            self.lights = as_lights(self._light_spec, center=self._center(), camera=camera)
+            self._lights_pending, self._light_spec = False, None
+        return self.lights
+
+    def _center(self):
+        return np.reshape(np.asarray(self.bounds, dtype=float), (3, 2)).mean(axis=1)
 
     def choose_model(self, request) -> tuple:
         """The model a request renders and the options the choice adds: ``auto``'s rules (listed in
@@ -158,24 +183,38 @@ class Renderer(SceneStages):
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
-               progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
+               progress_bar=None, radius=None, light_resolution=None, ambient_radiance=1.0,
                propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
                **model_options) -> RenderResult:
         """Render one image.
 
         Parameters
         ----------
-        camera : Camera, pyvista.Camera, pyvista.Plotter, dict or list, optional
-            PyVista's default isometric view of the volume when None.
+        camera : Camera, pyvista.Camera, pyvista.Plotter, dict, list or str, optional
+            PyVista's default isometric view of the volume when None; ``"iso"``, ``"xy"``,
+            ``"xz"``, ``"yz"``, ``"yx"``, ``"zx"``, ``"zy"`` as ``Plotter.camera_position``.
         window_size : (int, int), optional
-            ``(width, height)``; the plotter's when a plotter is given, else (512, 512).
+            ``(width, height)``; the plotter's when a plotter is given, else (512, 512). A size
+            whose buffers would not fit in the available memory is a ``MemoryError`` before
+            any work.
         model : str, default: "emission_absorption"
-            ``"emission_absorption"``, ``"ambient_occlusion"``, ``"single_scattering"``,
-            ``"ambient_scattering"``, ``"path_traced"`` (the Monte Carlo reference,
-            :func:`pv_ambient.stages.reference.path_trace`; options ``samples_per_pixel``,
-            ``target_error``, ``max_depth``) or ``"auto"``. ``auto`` picks the model the trade
-            benchmark measured best for the quality preset, and builds nothing the scene does
-            not need, by these rules (each tested):
+            One of (docs/models.rst; the lit models use :attr:`lights`):
+
+            * ``"emission_absorption"`` — VTK's ``add_volume``, no lights;
+            * ``"ambient_occlusion"`` — options ``radius`` (4 voxels), ``ambient_radiance`` (1.0);
+            * ``"single_scattering"`` — lit;
+            * ``"ambient_scattering"`` — lit; ``radius`` (8 voxels), ``propagation``
+              ("beer_lambert"), ``table_quality`` (the preset's);
+            * ``"diffusion"`` — lit; ``flux_limited`` (False);
+            * ``"path_traced"`` — lit, the Monte Carlo reference
+              (:func:`pv_ambient.stages.reference.path_trace`); ``samples_per_pixel`` (the
+              preset's: 16 / 64 / 256), ``target_error`` (None; a warning gives the error reached
+              when the cap comes first), ``max_depth`` (None), ``denoise`` (False);
+            * ``"auto"`` — lit; ``time_budget`` (None).
+
+            An option given to a model that does not use it earns a warning. ``auto`` picks the
+            model the trade benchmark measured best for the quality preset, and builds nothing
+            the scene does not need, by these rules (each tested):
 
             1. no scattering (albedo 0 wherever σt > 0): ``single_scattering`` with no light
                volume built — emission and absorption only;
@@ -184,21 +223,16 @@ class Renderer(SceneStages):
             3. no light left: ``single_scattering`` (emission and absorption only);
             4. otherwise ``diffusion``, with ``quality="accurate"`` flux-limited, and with
                ``quality="preview"`` ``ambient_scattering`` (an isotropic phase function uses a
-               1D table slice: D does not depend on θ). On all three scenes of the trade
-               benchmark plain diffusion has a lower error than ambient scattering (4×4-block
-               relative RMSE 0.35 / 0.16 / 0.11 against 0.49 / 0.75 / 0.13) at 0.5–0.7× its
-               camera-move cost; its first frame costs 1.2–2.2× ambient scattering's and
-               2.4–6.5× that of ambient scattering's "preview", the cheapest first frame that
-               carries multiply scattered light; flux-limited diffusion is the lowest-error
-               noise-free model (0.22 / 0.17 / 0.06) at a first frame 1.3–2.4× plain
-               diffusion's (README, "The trade");
+               1D table slice: D does not depend on θ). Diffusion has the lower error at a
+               similar camera-move cost, ambient scattering's "preview" the cheapest first
+               frame that carries multiply scattered light, flux-limited diffusion the lowest
+               error of the noise-free models (docs/trade.rst);
             5. with ``time_budget=SECONDS`` (a still image): ``path_traced`` with as many samples
                per pixel as fit in the budget (``samples_per_pixel`` is then the cap, default
-               4096), denoised when ``pyoidn`` is installed — on every row of the trade
-               benchmark the path tracer reaches each noise-free model's error in less time
-               than that model's first frame (README, "The trade", column "PT same err"). The
-               denoiser's time (one emission–absorption frame for its guide, then OIDN) comes
-               on top of the budget.
+               4096), denoised when ``pyoidn`` is installed — the path tracer reaches each
+               noise-free model's error in less time than that model's first frame
+               (docs/trade.rst). The denoiser's time (one emission–absorption frame for its
+               guide, then OIDN) comes on top of the budget.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
             the smallest grid spacing; light grid 1×, docs/ambient_scattering.rst §3's default, ≥ 2× the data
@@ -231,8 +265,11 @@ class Renderer(SceneStages):
         table_quality : {"preview", "balanced", "accurate"}, optional
             Monte Carlo effort of the preintegrated table slice (computed once, cached on disk);
             the preset's when None.
-        progress_bar : bool, default: False
-            Show a tqdm progress bar over image tiles.
+        progress_bar : bool, optional
+            One tqdm bar per stage, named: light volumes, preintegrated table, diffusion solve,
+            ray cast (over image tiles), path-traced samples. True shows them at once, False
+            never; None (the default) shows a stage's bar only once it has run 2 s, and never
+            under pytest.
         ray_end : numpy.ndarray, optional
             ``(H, W)`` world distance along each pixel's camera ray at which opaque geometry
             stops it (``inf`` where there is none); the radiance then holds only the volume in
@@ -262,7 +299,7 @@ class Renderer(SceneStages):
 
     def request(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                 jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
-                progress_bar=False, radius=None, light_resolution=None, ambient_radiance=1.0,
+                progress_bar=None, radius=None, light_resolution=None, ambient_radiance=1.0,
                 propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
                 **model_options) -> "RenderRequest":
         """Check :meth:`render`'s arguments once into a frozen :class:`RenderRequest` (same parameters)."""
@@ -271,6 +308,8 @@ class Renderer(SceneStages):
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
         check_choice(model, "model", ALL_MODELS)
+        check_image_memory(size, model)
+        given = given_options(radius=radius, propagation=propagation, ambient_radiance=ambient_radiance)
         check_choice(quality, "quality", QUALITIES)
         check_choice(propagation, "propagation", PROPAGATION_MODES)
         preset = QUALITY_PRESETS[quality]
@@ -280,7 +319,7 @@ class Renderer(SceneStages):
         if light_resolution is None and preset["light_resolution"] is not None:
             light_resolution = max(preset["light_resolution"],
                                    default_factor(self.optics, self.geometry) if quality == "accurate" else 0.0)
-        explicit = frozenset(model_options)
+        explicit = frozenset(model_options) | given
         model_options.setdefault("samples_per_pixel", preset["samples_per_pixel"])
         unknown = set(model_options) - MODEL_OPTIONS
         if unknown:
@@ -306,17 +345,26 @@ class Renderer(SceneStages):
             early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
             ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
             radius=self._radius(radius, model), t_end=check_ray_end(ray_end, size), light_resolution=light_resolution,
-            table_quality=table_quality, propagation=propagation, bake_lights=bool(preset["bake_lights"]),
-            progress_bar=bool(progress_bar), asked=asked,
+            table_quality=table_quality, propagation=propagation, bake_lights=bool(preset["bake_lights"]), asked=asked,
+            progress_bar=None if progress_bar is None else bool(progress_bar),
             backend=resolve_backend(asked), time_budget=budget, options=dict(model_options), explicit=explicit)
 
     def render_request(self, req: "RenderRequest") -> RenderResult:
         """Render a checked :class:`RenderRequest` (what :meth:`render` does after checking)."""
+        if MODEL_SPECS[req.model].lit:
+            self.place_lights(req.camera)
         model, extra = self.choose_model(req)
+        compile_notice(model)
+        warn_unused_options(req, model)
         options = {**req.options, **extra}
         if model == "path_traced":
-            return self._path_trace(req, options)
-        return self._render(req, model, options)
+            res = self._path_trace(req, options)
+        else:
+            res = self._render(req, model, options)
+        if MODEL_SPECS[req.model].lit:
+            res.metadata["light_rig"] = self.light_rig
+            warn_black(self, res, req.background)
+        return res
 
     def _render(self, req, model, model_options):
         t_start = time.perf_counter()
@@ -326,15 +374,21 @@ class Renderer(SceneStages):
         w, h = size
         rad = np.zeros((h, w, 3), np.float32)
         alpha = np.zeros((h, w), np.float32)
-        lights = self.active_lights(grid, backend) if MODEL_SPECS[model].lit else ()
-        if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
-            lights = ()
-        taus = [self.optical_depth(lt, grid, backend) for lt in lights]
+        lit = MODEL_SPECS[model].lit and bool(self.lights)
+        # the optical-depth volumes are computed (and cached) while the active lights are sorted out
+        with stage_bar(progress_bar if lit else False, f"light volumes ({len(self.lights)} lights)") as bar:
+            lights = self.active_lights(grid, backend) if lit else ()
+            if model in ("single_scattering", "diffusion") and not self.optics.has_scattering:
+                lights = ()
+            taus = [self.optical_depth(lt, grid, backend) for lt in lights]
+            bar.update()
+        inner = progress_bar is True  # the stages' own bars (table nodes, solver iterations)
         ball = self.ball_grid(radius) if MODEL_SPECS[model].ball else K.NONE4
         D, a_nodes, lo_log, dlog = K.NONE3, K.NONE1, 0.0, 1.0
         phi = K.NONE4
         if model == "ambient_scattering" and lights:
-            tab = self.table(ph, radius, quality=req.table_quality, progress_bar=progress_bar)
+            with stage_bar(progress_bar if not inner else False, "preintegrated table"):
+                tab = self.table(ph, radius, quality=req.table_quality, progress_bar=inner)
             D, F_diff, a_nodes, lo_log, dlog = tab.lookup_args()
             if req.propagation == "tube":
                 phi = np.concatenate([self.front_depth(lt, grid, radius, ph, req.table_quality) for lt in lights],
@@ -343,8 +397,13 @@ class Renderer(SceneStages):
                 phi = None  # the τ grids themselves, read at the ball's entry point
         diff = K.NONE12
         if model == "diffusion" and lights:
-            diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
-                                  progress_bar=progress_bar, backend=backend)
+            with stage_bar(progress_bar, "diffusion solve") as bar:
+                diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
+                                      progress_bar=inner, backend=backend)
+                info = getattr(self, "_diffusion_info", None) or {}
+                if "residual" in info:
+                    bar.set_postfix_str(f"{info['iterations']} iterations, residual {info['residual']:.2g}")
+                bar.update()
         seed, bg, ert, amb, t_end, jitter, asked = (req.seed, req.background, req.early_termination,
                                                     req.ambient_radiance, req.t_end, req.jitter, req.asked)
         d2min = (0.25 * step) ** 2
@@ -363,9 +422,11 @@ class Renderer(SceneStages):
                 # (then exactly: trilinear interpolation is linear); the march is single scattering's
                 fold = model == "diffusion" and grid.on_samples(self.optics.field.shape)
                 dkey = (bool(model_options.get("flux_limited", False)), fold) if model == "diffusion" else None
-                inc = self.incident(MODEL_IDS[model], lights, grid, (lrec, grec, arec),
-                                    (model, d2min, radius, tkey, req.propagation, ph.canonical(), dkey),
-                                    diffusion=diff if fold else None)
+                with stage_bar(progress_bar, "baked in-scattering") as bar:
+                    inc = self.incident(MODEL_IDS[model], lights, grid, (lrec, grec, arec),
+                                        (model, d2min, radius, tkey, req.propagation, ph.canonical(), dkey),
+                                        diffusion=diff if fold else None)
+                    bar.update()
                 grec = grec._replace(inc=inc[0], baked=inc[1])
                 if fold:
                     kernel_model = MODEL_IDS["single_scattering"]
@@ -377,9 +438,10 @@ class Renderer(SceneStages):
                     K.medium_of(self.optics, self.majorant(), MAJORANT_BLOCK),
                     lrec, grec, arec,
                     K.Diffusion(diff, float(ph.mean_cosine)))
-            backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
-                                  device_cache=self.device_cache if backend == "cuda" else None,
-                                  progress_bar=progress_bar, name=model)
+            with stage_bar(progress_bar if not inner else False, f"ray cast ({model})"):
+                backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
+                                      device_cache=self.device_cache if backend == "cuda" else None,
+                                      progress_bar=inner, name=f"ray cast ({model})")
         else:
             rad[:] = bg
         meta = {"model": model, "requested_model": req.model, "quality": req.quality, "step": step,
@@ -437,6 +499,8 @@ class Renderer(SceneStages):
         from ..stages.reference import path_trace
 
         cam, size = as_camera(camera, window_size=window_size, bounds=self.bounds)
+        check_image_memory(size, "path_traced")
+        self.place_lights(cam)
         block = check_int(majorant_block, "majorant_block", lo=1)
         asked = self.backend if backend is None else check_choice(backend, "backend", BACKENDS)
         backend = resolve_backend(asked)
@@ -445,6 +509,13 @@ class Renderer(SceneStages):
                          max_depth=max_depth, seed=seed, background=background, progress_bar=progress_bar,
                          batch=batch, light_clamp=light_clamp, rr_depth=rr_depth, backend=backend,
                          time_limit=time_limit, device_cache=self.device_cache if backend == "cuda" else None)
+        reached, target = out.metadata.get("relative_error"), out.metadata.get("target_error")
+        if target is not None and time_limit is None and not reached <= target:
+            warnings.warn(f"target_error={target:g} was not reached: the relative error is {reached:.3g} after "
+                          f"{out.metadata['spp']} samples per pixel (samples_per_pixel={samples_per_pixel} is the "
+                          f"cap; the error falls as 1/√samples, so about "
+                          f"{int(np.ceil(out.metadata['spp'] * (reached / target) ** 2))} would reach it)",
+                          UserWarning, stacklevel=2)
         return RenderResult(radiance=out.radiance, alpha=out.alpha, camera=cam, metadata=out.metadata,
                             std_error=out.std_error)
 
@@ -455,11 +526,13 @@ class Renderer(SceneStages):
 
             if not available():
                 denoise_radiance(None)  # raises the ImportError that names the extra
-        res = self.path_trace(req.camera, req.window_size, phase=req.phase,
-                              samples_per_pixel=options.get("samples_per_pixel", DEFAULT_SPP),
-                              target_error=options.get("target_error"), max_depth=options.get("max_depth"),
-                              seed=req.seed, background=req.background, progress_bar=req.progress_bar,
-                              light_clamp=0.25 * req.step, backend=req.backend, time_limit=options.get("time_limit"))
+        with stage_bar(False if req.progress_bar else req.progress_bar, "path-traced samples"):
+            res = self.path_trace(req.camera, req.window_size, phase=req.phase,
+                                  samples_per_pixel=options.get("samples_per_pixel", DEFAULT_SPP),
+                                  target_error=options.get("target_error"), max_depth=options.get("max_depth"),
+                                  seed=req.seed, background=req.background, progress_bar=req.progress_bar is True,
+                                  light_clamp=0.25 * req.step, backend=req.backend,
+                                  time_limit=options.get("time_limit"))
         if "time_limit" in options:
             res.metadata["requested_model"] = "auto"
             res.metadata["time_budget"] = options["time_limit"]
@@ -505,30 +578,57 @@ class Renderer(SceneStages):
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
 
-def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=(), model="emission_absorption",
+def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=None, model="emission_absorption",
            scalars=None, component=None, preference="point", nan_policy="raise", **options) -> RenderResult:
     """Render a volume: the one-call entry point.
 
     Parameters
     ----------
     grid : pyvista.ImageData or vtkImageData
-        The volume (never modified).
+        The volume (never modified). A 2-D grid (one point along an axis) or a single point
+        has no thickness: a ValueError says how to give it one.
     transfer_function : TransferFunction, dict, vtkVolumeProperty or volume actor, optional
         PyVista's defaults (theme colormap, linear opacity, default unit distance) when None.
-    camera : pyvista.Camera, pyvista.Plotter, Camera, dict or list, optional
-        PyVista's default isometric view when None.
+    camera : pyvista.Camera, pyvista.Plotter, Camera, dict, list or str, optional
+        PyVista's default isometric view when None; ``"iso"``, ``"xy"``, ``"xz"``, ``"yz"``,
+        ``"yx"``, ``"zx"``, ``"zy"`` as ``Plotter.camera_position`` takes them.
     window_size : (int, int), optional
-        ``(width, height)``.
-    lights : sequence, optional
-        Point and directional lights (used by the scattering models).
+        ``(width, height)``, default (512, 512) (a plotter's when ``camera`` is a plotter).
+    lights : sequence of PointLight, DirectionalLight, pyvista.Light or dict, optional
+        Used by the lit models. None (not given): a default light rig placed from the camera
+        and the bounds, bright in any world unit (docs/lights.rst); ``()``: no light (a lit
+        model then renders black, with a warning). Lights given to a model that ignores them
+        earn a warning.
     model : str, default: "emission_absorption"
+        ``"emission_absorption"`` (VTK's ``add_volume``: no lights), ``"ambient_occlusion"``
+        (options ``radius`` = 4 voxels, ``ambient_radiance`` = 1.0), ``"single_scattering"``,
+        ``"ambient_scattering"`` (``radius`` = 8 voxels, ``propagation`` = "beer_lambert",
+        ``table_quality`` = the preset's), ``"diffusion"`` (``flux_limited`` = False),
+        ``"path_traced"`` (``samples_per_pixel`` = 16 / 64 / 256 by ``quality``,
+        ``target_error`` = None, ``max_depth`` = None, ``denoise`` = False) or ``"auto"``
+        (``time_budget`` = None; rules in :meth:`Renderer.render`). The lit models also take
+        ``phase`` (isotropic) and ``light_resolution`` (the preset's). docs/models.rst
+        describes each; an option the chosen model does not use earns a warning.
+    scalars : str, optional
+        Array to classify (the active scalars when None).
+    component : int, optional
+        Component of a multi-component array (the magnitude when None).
+    preference : {"point", "cell"}, default: "point"
+        Which data to use when both exist.
+    nan_policy : {"raise", "vacuum"}, default: "raise"
+        Non-finite scalars are an error, or empty space.
     **options
-        Passed to :meth:`Renderer.render` (``step``, ``jitter``, ``seed``, ``background``,
-        ``early_termination``, ``progress_bar``).
+        Every other keyword of :meth:`Renderer.render`, with its defaults: ``quality="balanced"``,
+        ``step=None`` (½ the smallest spacing), ``jitter=False``, ``seed=0``,
+        ``background=(0, 0, 0)``, ``early_termination=1e-5``, ``progress_bar=None`` (a named
+        bar per stage that runs longer than 2 s; never under pytest), ``ray_end=None``,
+        ``backend=None`` ("auto"), and the model options above.
 
     Returns
     -------
     RenderResult
+        Linear float32 radiance and alpha; ``save("x.png")`` shows the lit models at
+        ``exposure="auto"`` (docs/display.rst).
 
     Examples
     --------
@@ -538,7 +638,16 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
     >>> res = pv_ambient.render(grid, window_size=(40, 30))
     >>> res.radiance.shape, res.alpha.shape
     ((30, 40, 3), (30, 40))
+
+    A lit model with no light argument gets the default light rig:
+
+    >>> res = pv_ambient.render(grid, window_size=(40, 30), model="single_scattering")
+    >>> res.metadata["lights"], res.metadata["light_rig"]
+    (2, 'default')
     """
+    if window_size is not None:
+        check_image_memory(check_window_size(window_size), model if isinstance(model, str) else "")
+    warn_unused_lights(lights, model)
     r = Renderer(grid, transfer_function=transfer_function, scalars=scalars, component=component,
                  lights=lights, preference=preference, nan_policy=nan_policy)
     return r.render(camera=camera, window_size=window_size, model=model, **options)

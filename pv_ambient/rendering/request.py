@@ -1,9 +1,15 @@
 """The checked inputs of one render: :class:`RenderRequest`, built by
 :meth:`pv_ambient.Renderer.request` (every argument of :meth:`pv_ambient.Renderer.render` checked
-once), and the checks of its array inputs."""
+once), the checks of its array inputs and sizes (``ray_end``, the memory a ``window_size`` needs,
+a grid's thickness), the feedback a render gives (unused lights and options, a black lit
+picture: docs/lights.rst) and its progress (one named bar per stage, a compile notice)."""
 
 from __future__ import annotations
 
+import os
+import sys
+import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,7 +41,7 @@ class RenderRequest:
     table_quality: str
     propagation: str
     bake_lights: bool
-    progress_bar: bool
+    progress_bar: bool | None
     asked: str
     backend: str
     time_budget: float | None
@@ -56,3 +62,225 @@ def check_ray_end(ray_end, size):
     return np.ascontiguousarray(arr)
 
 
+
+
+#: The models that use each model option (an option given to another model earns a warning).
+#: ``phase``, ``light_resolution`` and ``table_quality`` describe the medium and the effort, not a
+#: model: they may be given to every model (one scene, many models) without a warning.
+OPTION_MODELS = {
+    "samples_per_pixel": ("path_traced",), "target_error": ("path_traced",), "max_depth": ("path_traced",),
+    "denoise": ("path_traced",), "flux_limited": ("diffusion",), "propagation": ("ambient_scattering",),
+    "radius": ("ambient_occlusion", "ambient_scattering"), "ambient_radiance": ("ambient_occlusion",),
+}
+#: Bytes per pixel a render holds at its peak (image buffers, float64 sums and their conversion):
+#: the ray cast's radiance and alpha, the path tracer's sums, moments and float32 copies.
+BYTES_PER_PIXEL = {"path_traced": 200, "auto": 200}
+BYTES_PER_PIXEL_RAYCAST = 64
+
+
+def given_options(*, radius, propagation, ambient_radiance) -> frozenset:
+    """The names of :meth:`Renderer.render`'s model knobs given a value other than their default."""
+    from .presets import DEFAULT_PROPAGATION
+
+    given = {"radius": radius is not None, "propagation": propagation != DEFAULT_PROPAGATION,
+             "ambient_radiance": ambient_radiance != 1.0}
+    return frozenset(k for k, v in given.items() if v)
+
+
+def warn_unused_options(req, model):
+    """Warn about options the caller gave that ``model`` (the one rendered) does not use."""
+    unused = sorted(k for k in req.explicit if k in OPTION_MODELS and model not in OPTION_MODELS[k])
+    if unused:
+        chose = f"model={req.model!r} chose {model!r}, which" if req.model != model else f"model={model!r}"
+        users = "; ".join(f"{k}: {', '.join(OPTION_MODELS[k])}" for k in unused)
+        warnings.warn(f"{', '.join(unused)} not used: {chose} does not use {'it' if len(unused) == 1 else 'them'} "
+                      f"(the models that do — {users})", UserWarning, stacklevel=4)
+
+
+def warn_unused_lights(lights, model):
+    """Warn when lights were given explicitly with a model that ignores lights."""
+    from .presets import MODEL_SPECS
+
+    if lights is None or model not in MODEL_SPECS or MODEL_SPECS[model].lit:
+        return
+    try:
+        n = len(lights)
+    except TypeError:
+        n = 1
+    if n:
+        lit = ", ".join(m.name for m in MODEL_SPECS.values() if m.lit)
+        warnings.warn(f"{n} light{'s' if n > 1 else ''} given but model={model!r} does not use lights (it renders "
+                      f"without lighting); the lit models are {lit}", UserWarning, stacklevel=3)
+
+
+def warn_black(renderer, result, background):
+    """Warn when a lit render holds no light at all (only the background where the volume is):
+    says why — no lights given, every light dropped, or a transfer function that does not scatter."""
+    alpha = result.alpha
+    if not np.any(alpha > 0.0):
+        return
+    rest = result.radiance.astype(np.float64) - (1.0 - alpha.astype(np.float64))[..., None] * np.asarray(background)
+    if np.max(rest) > 1e-5 * float(np.max(background)):  # float32 rounding of T·background
+        return
+    if not renderer.lights:
+        cause = "no lights were given (lights=() or []); leave lights out for the default light rig"
+    elif not renderer.optics.has_scattering:
+        cause = "the transfer function does not scatter (albedo 0 wherever σt > 0) and emits nothing"
+    else:
+        cause = (f"none of the {len(renderer.lights)} lights reaches the volume: zero intensity, or behind material "
+                 "of optical depth > 700")
+    warnings.warn(f"model={result.metadata.get('requested_model', result.metadata.get('model'))!r} rendered black: "
+                  f"{cause}", UserWarning, stacklevel=4)
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation (Linux ``MemAvailable``; else physical memory)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        import os
+
+        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return 1 << 62
+
+
+def check_image_memory(size, model):
+    """Raise MemoryError (naming ``window_size`` and the bytes) before any work when a render of
+    ``size`` pixels would not fit in the memory available."""
+    w, h = size
+    need = int(w) * int(h) * BYTES_PER_PIXEL.get(model, BYTES_PER_PIXEL_RAYCAST)
+    have = available_memory()
+    if need > have:
+        raise MemoryError(f"window_size={(int(w), int(h))} needs about {need / 2**30:.3g} GiB ({need} bytes) for "
+                          f"the image buffers of model={model!r}, more than the {have / 2**30:.3g} GiB available; "
+                          "render a smaller image")
+
+
+#: ``progress_bar=None`` (the default): a stage's bar appears only once it has run this long (s).
+PROGRESS_DELAY = 2.0
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def set_postfix_str(self, text):
+        pass
+
+
+class _DelayedBar:
+    """A tqdm bar that appears only after ``delay`` seconds and then refreshes its elapsed time
+    every second (every 10 s when stderr is not a terminal) from a thread: a stage may run long
+    without a step to report."""
+
+    def __init__(self, name, total, delay):
+        import threading
+
+        self.name, self.total, self.n, self.bar = name, total, 0, None
+        self._done = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._run, args=(delay,), daemon=True)
+        self._thread.start()
+
+    def _run(self, delay):
+        if self._done.wait(delay):
+            return
+        from tqdm.auto import tqdm
+
+        with self._lock:
+            if self._done.is_set():
+                return
+            fmt = {"bar_format": "{desc}: {elapsed} elapsed"} if self.total == 1 else {}  # one step: the time
+            self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False, **fmt)
+            self.bar.start_t -= delay  # elapsed time counts from the start of the stage
+        every = 1.0 if getattr(sys.stderr, "isatty", lambda: False)() else 10.0  # a log file: fewer lines
+        while not self._done.wait(every):
+            with self._lock:
+                self.bar.refresh()
+
+    def update(self, n=1):
+        with self._lock:
+            self.n += n
+            if self.bar is not None:
+                self.bar.update(n)
+
+    def set_postfix_str(self, text):
+        with self._lock:
+            if self.bar is not None:
+                self.bar.set_postfix_str(text)
+
+    def close(self):
+        self._done.set()
+        self._thread.join()
+        if self.bar is not None:
+            self.bar.close()
+
+
+@contextmanager
+def stage_bar(progress_bar, name, total=1):
+    """A tqdm bar for one named render stage (light volumes, table, diffusion solve, ray cast,
+    samples): shown at once with ``progress_bar=True``, never with False, and with None (the
+    default) only once the stage has run :data:`PROGRESS_DELAY` seconds — and never under pytest
+    (``PYTEST_CURRENT_TEST``)."""
+    if progress_bar is False or (progress_bar is None and "PYTEST_CURRENT_TEST" in os.environ):
+        yield _NoBar()
+        return
+    if progress_bar is None:
+        bar = _DelayedBar(name, total, PROGRESS_DELAY)
+    else:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=total, desc=name)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+_NOTICED = []
+
+
+def compile_notice(model):
+    """One line on stderr, once per process, before the first render whose kernels are neither
+    compiled in this process nor in Numba's on-disk cache (compiling takes 10–40 s once)."""
+    if _NOTICED:
+        return
+    _NOTICED.append(True)
+    if model == "path_traced":
+        from .._kernels.pathtrace import pathtrace_image as fn
+    else:
+        from .._kernels.raycast import raycast_image as fn
+    try:
+        cached = bool(fn.signatures) or os.path.exists(fn._cache._cache_file._index_path)
+    except AttributeError:  # another Numba: say nothing rather than something wrong
+        cached = True
+    if not cached:
+        print("pv_ambient: compiling the rendering kernels for this machine (first use only, about 10-40 s; "
+              "then cached)", file=sys.stderr, flush=True)
+
+
+def check_thickness(geometry, dimensions=None):
+    """Raise a ValueError for a grid without thickness: a single point, or a 2-D grid (one point
+    along an axis). Such a box has zero volume and would render nothing; VTK's mappers draw a 2-D
+    grid face-on but not edge-on (measured with the gpu mapper), not as a slab, so no thickness is
+    guessed here."""
+    if not geometry.is_empty:
+        return
+    dims = tuple(int(d) for d in (dimensions if dimensions is not None else geometry.shape))
+    flat = [ax for ax, (lo, hi) in enumerate(zip(geometry.box_lo, geometry.box_hi)) if hi <= lo]
+    if len(flat) == 3:
+        raise ValueError(f"the grid holds a single point or cell (dimensions {dims}): a volume needs at least two "
+                         "points along every axis")
+    names = " and ".join("xyz"[ax] for ax in flat)
+    example = tuple(2 if ax in flat else d for ax, d in enumerate(dims))
+    raise ValueError(f"the grid is 2-D (dimensions {dims}: one point along {names}), so the volume has no thickness "
+                     "and would render nothing; pv_ambient does not guess one (VTK's mappers draw such a grid "
+                     "face-on but not edge-on). Give it one: e.g. an ImageData of dimensions "
+                     f"{example} holding the layer twice, the spacing along {names} its thickness — or show a 2-D "
+                     "image with Plotter.add_mesh")

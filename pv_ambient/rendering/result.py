@@ -11,6 +11,44 @@ import numpy as np
 from ..inputs.validation import check_choice, check_real
 
 TONEMAPS = ("clip", "reinhard", "aces")
+#: ``exposure="auto"``: the AUTO_PERCENTILE-th percentile of the luminance over the pixels the
+#: volume covers (alpha > AUTO_ALPHA) is mapped to AUTO_WHITE (below white, so highlights keep
+#: their colour): docs/display.rst.
+AUTO_PERCENTILE, AUTO_WHITE, AUTO_ALPHA = 99.0, 0.8, 0.05
+#: Rec. 709 luminance weights of linear RGB.
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+
+def auto_exposure(radiance, alpha=None) -> float:
+    """The exposure (stops) of ``exposure="auto"``: the 99th percentile of the luminance over the
+    pixels with ``alpha > 0.05`` (every pixel when none) maps to 0.8; 0 for a black image.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pv_ambient.rendering.result import auto_exposure
+    >>> auto_exposure(np.full((4, 4, 3), 0.1))   # 0.1 · 2**3 = 0.8
+    3.0
+    """
+    rad = np.asarray(radiance, dtype=np.float64)
+    lum = np.nan_to_num(rad @ np.array(LUMINANCE), nan=0.0, posinf=0.0)
+    if alpha is not None and np.any(np.asarray(alpha) > AUTO_ALPHA):
+        lum = lum[np.asarray(alpha) > AUTO_ALPHA]
+    top = float(np.percentile(lum, AUTO_PERCENTILE)) if lum.size else 0.0
+    if not top > 0.0:
+        top = float(lum.max()) if lum.size else 0.0  # a few bright pixels on black
+    if not top > 0.0:
+        return 0.0
+    return float(np.log2(AUTO_WHITE / top))
+
+
+def is_lit_model(model) -> bool:
+    """Whether ``model`` (a name from ``metadata["model"]``) uses lights: its default display
+    exposure is ``"auto"`` (emission–absorption and ambient occlusion keep VTK's 0)."""
+    from .presets import MODEL_SPECS
+
+    spec = MODEL_SPECS.get(model)
+    return bool(spec is not None and spec.lit)
 
 
 def srgb_encode(x):
@@ -75,24 +113,62 @@ class RenderResult:
         """``(H, W, 4)`` float32: radiance and alpha."""
         return np.concatenate([self.radiance, self.alpha[..., None]], axis=2)
 
-    def to_uint8(self, *, exposure=0.0, tonemap="clip", srgb=False, alpha=False) -> np.ndarray:
+    def __repr__(self):
+        m = self.metadata or {}
+        w, h = self.window_size
+        parts = [f"model={m.get('model', '?')!r}", f"window_size=({w}, {h})"]
+        if "lights" in m:
+            parts.append(f"lights={m['lights']}")
+        if "spp" in m:
+            parts.append(f"spp={m['spp']}")
+        t = m.get("time_prepare", 0.0) + m.get("time_render", m.get("time", 0.0))
+        lum = self.radiance.astype(np.float64) @ np.array(LUMINANCE) if self.radiance.size else np.zeros(1)
+        parts += [f"time={t:.3g} s", f"luminance max={float(np.nanmax(lum)) if lum.size else 0.0:.3g}",
+                  f"coverage={float(np.mean(self.alpha > 0.5)) if self.alpha.size else 0.0:.0%}"]
+        return f"RenderResult({', '.join(parts)})"
+
+    def display_exposure(self, exposure=None) -> float:
+        """The exposure in stops that :meth:`to_uint8` applies for ``exposure``.
+
+        None (the default) is ``"auto"`` for the lit models and 0 (VTK's convention) for
+        emission–absorption and ambient occlusion; ``"auto"`` is :func:`auto_exposure` of this
+        image (computed from the radiance every time: to keep a series of frames steady, resolve it
+        once and pass the number); a number is returned as it is.
+        """
+        if exposure is None:
+            exposure = "auto" if is_lit_model((self.metadata or {}).get("model")) else 0.0
+        if isinstance(exposure, str):
+            if exposure != "auto":
+                raise ValueError(f"exposure must be a number of stops or 'auto', got {exposure!r}")
+            return auto_exposure(self.radiance, self.alpha)
+        return check_real(exposure, "exposure")
+
+    def to_uint8(self, *, exposure=None, tonemap="clip", srgb=False, alpha=False) -> np.ndarray:
         """Display image: ``radiance · 2**exposure`` → tone map → optional sRGB → uint8.
 
-        The defaults (no exposure, clip, no sRGB encoding) are VTK's convention, in which a
-        colour value is written to the frame buffer as it is — use them to compare with VTK.
+        The lit models' default exposure is ``"auto"`` (since 0.3.0): the 99th percentile of
+        the luminance over the volume's pixels is mapped to 0.8 (docs/display.rst), so lights
+        of any physical strength give a visible picture; the radiance itself is never changed.
+        Emission–absorption and ambient occlusion keep VTK's convention (no exposure, clip, no
+        sRGB encoding, in which a colour value is written to the frame buffer as it is) — use
+        it to compare with VTK.
 
         Parameters
         ----------
-        exposure : float, default: 0.0
-            Exposure in stops.
+        exposure : float or "auto", optional
+            Exposure in stops; None: ``"auto"`` for lit models, 0 otherwise
+            (:meth:`display_exposure`).
         tonemap : {"clip", "reinhard", "aces"}, default: "clip"
         srgb : bool, default: False
             Apply the sRGB transfer curve.
         alpha : bool, default: False
             Return RGBA (alpha channel = ``alpha``) instead of RGB.
         """
-        exposure = check_real(exposure, "exposure")
+        explicit = exposure is not None and not isinstance(exposure, str)
+        exposure = self.display_exposure(exposure)
         x = tonemap_values(self.radiance.astype(np.float64) * 2.0 ** exposure, tonemap)
+        if explicit and is_lit_model((self.metadata or {}).get("model")):
+            _warn_if_black(self, x, exposure)
         if srgb:
             x = srgb_encode(x)
         img = np.round(x * 255.0).astype(np.uint8)
@@ -172,3 +248,20 @@ class RenderResult:
         else:
             raise ValueError(f"path must end in .png, .npy or .npz, got {path.name!r}")
         return path
+
+
+def _warn_if_black(result, shown, exposure):
+    """Warn when a lit picture displays black at an explicit exposure although its radiance is not
+    zero (the issue of physical lights in large world units: 1 W/sr at 300 mm gives ~1e-5)."""
+    covered = result.alpha > AUTO_ALPHA
+    if not covered.any() or np.max(shown[covered], initial=0.0) * 255.0 >= 0.5:
+        return
+    peak = float(np.max(result.radiance[covered], initial=0.0))
+    if peak > 0.0:
+        import warnings
+
+        warnings.warn(f"the picture is black at exposure={exposure:g}: the radiance peaks at {peak:.3g} (lights are "
+                      "physical: a point light of intensity I lights a point d world units away with I/d², so "
+                      "large world units such as millimetres need large intensities); use exposure='auto' (the "
+                      f"default), or about exposure={auto_exposure(result.radiance, result.alpha):.1f}",
+                      UserWarning, stacklevel=3)
