@@ -410,15 +410,23 @@ def threads_scaling(args):
 
 
 def peak_rss():
-    """This process's peak resident set (bytes; ``ru_maxrss`` is in kB on Linux)."""
+    """This process's peak resident set in bytes: ``VmHWM`` of ``/proc/self/status`` (which
+    :func:`reset_peak_rss` restarts; ``ru_maxrss`` keeps the all-time peak), else ``ru_maxrss``."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
     import resource
 
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 def reset_peak_rss() -> bool:
-    """Restart the peak at the current resident set (Linux ``clear_refs`` 5, which ``ru_maxrss``
-    follows): else the warm-up's compilation peak would hide the growth of a small scene."""
+    """Restart the peak at the current resident set (Linux ``clear_refs`` 5 resets ``VmHWM``):
+    else the grid synthesis' and the warm-up's peaks would hide the renderer's growth."""
     try:
         with open("/proc/self/clear_refs", "w") as f:
             f.write("5")
