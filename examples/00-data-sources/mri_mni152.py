@@ -35,37 +35,14 @@ SIZE = (128, 128) if FAST else (400, 400)  # pixels per panel
 
 
 # %%
-# From NIfTI to ``ImageData``. The NIfTI affine maps voxel indices ``(i, j, k, 1)`` to world
-# (MNI) millimetres, exactly what VTK calls the index-to-physical matrix: its column norms are
-# the spacing, the normalised columns the direction matrix and its last column the origin.
-# Averaging ``f``-voxel blocks changes the affine too: new voxel ``I`` is the centre of old
-# voxels ``f·I … f·I + f − 1``.
-def block_mean(data, affine, f):
-    """``data`` averaged over f×f×f blocks, and the affine of the coarser grid."""
-    if f == 1:
-        return data, affine
-    n = [s // f for s in data.shape]
-    blocks = data[:n[0] * f, :n[1] * f, :n[2] * f].reshape(n[0], f, n[1], f, n[2], f)
-    coarse = np.eye(4)
-    coarse[:3, :3] *= f
-    coarse[:3, 3] = (f - 1) / 2
-    return blocks.mean(axis=(1, 3, 5)), affine @ coarse
-
-
-def nifti_to_image_data(data, affine, name="values"):
-    """A ``pyvista.ImageData`` holding ``data`` (indexed ``[i, j, k]``) placed by a NIfTI affine."""
-    linear = affine[:3, :3]
-    spacing = np.linalg.norm(linear, axis=0)
-    grid = pv.ImageData(dimensions=data.shape, spacing=spacing, origin=affine[:3, 3],
-                        direction_matrix=linear / spacing)
-    grid.point_data[name] = np.asarray(data, dtype=np.float32).ravel(order="F")  # VTK: i fastest
-    return grid
-
-
+# From NIfTI to ``ImageData``: :func:`pv_ambient.pyvista.nifti_to_image_data`. The NIfTI affine
+# maps voxel indices ``(i, j, k, 1)`` to world (MNI) millimetres, exactly what VTK calls the
+# index-to-physical matrix: its column norms are the spacing, the normalised columns the direction
+# matrix and its last column the origin. Averaging ``f``-voxel blocks (``factor=``) changes the
+# affine too: new voxel ``I`` is the centre of old voxels ``f·I … f·I + f − 1``.
 t = time.perf_counter()
 img = load_mni152_template()  # a nibabel Nifti1Image, intensities scaled to [0, 1]
-data, affine = block_mean(img.get_fdata(dtype=np.float32), img.affine, FACTOR)
-grid = nifti_to_image_data(data, affine, name="T1")
+grid = pa.pyvista.nifti_to_image_data(img, factor=FACTOR, name="T1")
 zooms = tuple(float(v) for v in img.header.get_zooms()[:3])
 print(f"MNI152 {img.shape} voxels of {zooms} mm -> {grid.dimensions} points, spacing "
       f"{tuple(round(float(s), 2) for s in grid.spacing)} mm, loaded in {time.perf_counter() - t:.1f} s")
