@@ -78,10 +78,15 @@ pa.render(datasets.cloud(n=16), **{**kw, "window_size": (16, 16)})   # warm-up: 
 t = time.perf_counter()
 for i, path in enumerate(cfg["files"]):
     res = pa.render(pv.read(path), **kw)
-    res.save(os.path.join(cfg["out"], f"frame_{i:04d}.png"))
+    res.save(os.path.join(cfg["out"], f"frame_{i:04d}.png"), exposure=cfg["exposure"])
 wall = time.perf_counter() - t
 print(json.dumps({"wall": wall, "threads": numba.get_num_threads()}))
 """
+
+
+#: One PNG exposure (stops) for every frame of every row: the series' and the loop's PNGs compare
+#: pixel for pixel (an "auto" exposure is per image in a loop, the first frame's in a series).
+EXPOSURE = 0.0
 
 
 def serial_loop(cfg, threads):
@@ -126,7 +131,8 @@ def main(argv=None):
     tf = transfer_function()
     kw = dict(transfer_function=tf, lights=LIGHTS, camera=CAMERA, model=args.model,
               window_size=(args.size, args.size))
-    cfg = {"tf": tf, "lights": LIGHTS, "camera": CAMERA, "model": args.model, "size": args.size, "files": files}
+    cfg = {"tf": tf, "lights": LIGHTS, "camera": CAMERA, "model": args.model, "size": args.size, "files": files,
+           "exposure": EXPOSURE}
     say(f"cloud {args.n}³ × {args.frames} time steps (.vti, {os.path.getsize(files[0]) / 2**20:.1f} MB each), "
         f"{args.model}, {args.size}x{args.size}, one point light; read + render + PNG per frame; "
         f"{os.cpu_count()} cores; load average at the start {os.getloadavg()[0]:.2f}")
@@ -146,7 +152,8 @@ def main(argv=None):
         pa.render_series(warm, out_dir=tmp / "warm", client=client, numba_threads=1, progress_bar=False,
                          **{**kw, "window_size": (16, 16)})
         t = time.perf_counter()
-        res = pa.render_series(files, out_dir=tmp / "series", client=client, numba_threads=1, progress_bar=False, **kw)
+        res = pa.render_series(files, out_dir=tmp / "series", client=client, numba_threads=1, progress_bar=False,
+                               display={"exposure": EXPOSURE}, **kw)
         wall = time.perf_counter() - t
         assert res.n_failed == 0, [f.error for f in res.failed]
         rows["c"] = (args.frames / wall, wall, f"render_series, LocalCluster {args.workers} workers × 1 thread "
