@@ -60,7 +60,8 @@ ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
 #: 2 where max σt·h > 0.3 else 1), preintegrated-table effort, samples per pixel of
 #: ``path_traced``, and whether an isotropic phase function's direct light is baked on the light grid
 #: once per light change (``bake_lights``; docs/models.rst, "Baked in-scattering") rather than
-#: evaluated light by light at every sample. Measured cost and error per preset: README, "Quality presets".
+#: evaluated light by light at every sample. Measured cost and error per preset: README, "The trade:
+#: which model when".
 QUALITY_PRESETS = {
     "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16,
                 "bake_lights": True},
