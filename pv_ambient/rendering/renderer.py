@@ -407,6 +407,8 @@ class Renderer(SceneStages):
         seed, bg, ert, amb, t_end, jitter, asked = (req.seed, req.background, req.early_termination,
                                                     req.ambient_radiance, req.t_end, req.jitter, req.asked)
         d2min = (0.25 * step) ** 2
+        # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
+        bake = bool(req.bake_lights and lights and ph.canonical()[2])
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
             tau = np.stack(taus, axis=-1) if taus else K.NONE4
@@ -415,8 +417,7 @@ class Renderer(SceneStages):
             grec = K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi, K.NONE4, 0)
             arec = K.Ambient(radius, ball, amb, D, a_nodes, lo_log, dlog)
             kernel_model = MODEL_IDS[model]
-            # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
-            if req.bake_lights and lights and ph.canonical()[2]:
+            if bake:
                 tkey = self._table_key(ph, radius, req.table_quality) if model == "ambient_scattering" else None
                 # diffusion's φ/4π joins the bake where the light-grid nodes are the data samples
                 # (then exactly: trilinear interpolation is linear); the march is single scattering's
@@ -449,7 +450,7 @@ class Renderer(SceneStages):
                 "device_memory": self._device.nbytes if backend == "cuda" else 0,
                 "lights": len(lights), "radius": radius, "phase": repr(ph),
                 "propagation": req.propagation if model == "ambient_scattering" else None,
-                "baked_lights": bool(req.bake_lights and lights and ph.canonical()[2]),
+                "baked_lights": bake,
                 "flux_limited": bool(model_options.get("flux_limited", False)) if model == "diffusion" else None,
                 "diffusion_solver": getattr(self, "_diffusion_info", None) if model == "diffusion" else None,
                 "light_grid": None if grid is None else grid.shape,
