@@ -27,7 +27,9 @@ with the kernels' own scalar functions. Before the table the count is checked on
 a brute-force NumPy march (:func:`brute_force_count`) and against the ray cast's own alpha.
 
 Options: ``--threads-scaling`` re-runs the camera-move and relight rows in subprocesses with
-NUMBA_NUM_THREADS=1 and 2 and prints the speed-up; ``--memory`` renders AS with two lights in a fresh
+NUMBA_NUM_THREADS = each of ``--threads`` (default 1,2) and prints the speed-ups over one thread
+(``--scaling-only``: that table alone, into ``speed_threads_n{N}.txt``; it needs neither pyvista nor
+vtk, for a many-core machine that lacks them); ``--memory`` renders AS with two lights in a fresh
 subprocess and prints its peak resident-set growth above its size after imports, loading the grid and
 a warm-up compile (``resource.getrusage``; the peak restarted there through ``/proc/self/clear_refs``)
 as a multiple of the volume's float32 size; ``--drag`` prints frames
@@ -95,16 +97,62 @@ def base_camera():
 
 
 def turned(cam, degrees):
-    """``cam`` turned by ``degrees`` of azimuth about its focal point."""
-    c = cam.to_vtk()
+    """``cam`` turned by ``degrees`` of azimuth about its focal point (VTK's ``Azimuth``; where vtk is
+    not installed — the thread-scaling children on a machine without it — the same rotation about the
+    view-up axis through the focal point in NumPy)."""
+    try:
+        c = cam.to_vtk()
+    except ImportError:
+        f = np.asarray(cam.focal_point, float)
+        u = np.asarray(cam.view_up, float)
+        u = u / np.linalg.norm(u)
+        a = np.radians(float(degrees))
+        v = np.asarray(cam.position, float) - f
+        v = v * np.cos(a) + np.cross(u, v) * np.sin(a) + u * np.dot(u, v) * (1.0 - np.cos(a))
+        return pa.Camera(tuple(f + v), cam.focal_point, cam.view_up, view_angle=cam.view_angle)
     c.Azimuth(float(degrees))
     return pa.Camera.from_vtk(c)
 
 
+def supernova_grid(n):
+    """The supernova at n³ as ``pyvista.ImageData``, or, where pyvista is not installed, as the array
+    core's :class:`~pv_ambient.inputs.grid.Volume` with the same samples and placement."""
+    try:
+        return datasets.supernova(n=n)
+    except ImportError:
+        import datasets_synthetic
+        from pv_ambient.inputs.grid import Volume
+
+        v = datasets_synthetic.load("supernova", n=n)
+        return Volume({v.scalars_name: v.values}, spacing=v.spacing, origin=v.origin)
+
+
+#: Environment variable naming an .npz of the supernova TF's nodes (``--tf-nodes``): the TF is then
+#: built from them by ``TransferFunction.from_table`` — the same lookup table, without pyvista.
+TF_NODES_ENV = "PV_AMBIENT_SPEED_TF_NODES"
+
+
 def transfer_function(density_factor=1.0, clim=None):
     style = datasets.suggested_style("supernova")
+    nodes = os.environ.get(TF_NODES_ENV)
+    if nodes and clim is None:
+        d = np.load(nodes)
+        scale = style["density_scale"] * density_factor / float(d["density_scale"])
+        return pa.TransferFunction.from_table(d["values"], sigma_t=d["sigma_t"] * scale, color=d["color"],
+                                              albedo=ALBEDO)
     style = {**style, "density_scale": style["density_scale"] * density_factor, "clim": clim or style["clim"]}
     return pa.TransferFunction(**style, albedo=ALBEDO)
+
+
+def write_tf_nodes(path):
+    """Write the supernova TF's nodes (scalar values, σt at the style's density scale, colour) —
+    read off VTK's lookup table, so pyvista is needed here, not where the file is read."""
+    tf = transfer_function()
+    grid = datasets.supernova(n=16)
+    s32 = np.asarray(grid.active_scalars, np.float32)
+    values, sig, col = tf._colormap_nodes(None, s32, np.isfinite(s32))
+    np.savez(path, values=values, sigma_t=sig, color=col,
+             density_scale=datasets.suggested_style("supernova")["density_scale"])
 
 
 def light_at(x):
@@ -160,7 +208,7 @@ class Frames:
     def __init__(self, grid, size, step):
         self.grid, self.size, self.step = grid, size, step
         self.cam = base_camera()
-        self.renderer = pa.Renderer(grid, transfer_function=transfer_function(), lights=[light_at(0.0)])
+        self.renderer = pa.Renderer(grid, backend="cpu", transfer_function=transfer_function(), lights=[light_at(0.0)])
         self.moves = 0  # every relight goes to a position never used before (no cached volume)
 
     def render(self, renderer, model, camera):
@@ -187,14 +235,15 @@ class Frames:
         if kind == "tf":
             def tf_change(k):
                 self.moves += 1
-                r2 = pa.Renderer(self.grid, transfer_function=transfer_function(1.0 + 0.02 * self.moves),
+                r2 = pa.Renderer(self.grid, backend="cpu",
+                                 transfer_function=transfer_function(1.0 + 0.02 * self.moves),
                                  lights=[light_at(0.0)])
                 r2.cache.share(r.cache)  # the preintegrated table slices: the disk cache's role
                 self.render(r2, model, self.cam)
             return tf_change
         if kind == "first":
             def first(k):
-                r2 = pa.Renderer(self.grid, transfer_function=transfer_function(), lights=[light_at(0.0)])
+                r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(), lights=[light_at(0.0)])
                 r2.cache.share(r.cache)
                 self.render(r2, model, self.cam)
             return first
@@ -396,16 +445,29 @@ def child_rows(args, threads):
     cmd = [sys.executable, __file__, "--n", str(args.n), "--size", str(args.size), "--repeats", str(args.repeats),
            "--child-rows"]
     env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
-    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError(f"child with {threads} threads failed:\n{proc.stderr[-3000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 def threads_scaling(args):
-    one, two = child_rows(args, 1), child_rows(args, 2)
-    lines = ["thread scaling (ours only, subprocesses with NUMBA_NUM_THREADS=1 and 2; target 1 → 2 ≥ 1.8×):",
-             f"  {'frame':34s} {'1 thread s':>10} {'2 threads s':>11} {'speed-up':>9}"]
-    for a, b in zip(one, two):
-        lines.append(f"  {a['row']:34s} {a['ours']:>10.3f} {b['ours']:>11.3f} {a['ours'] / b['ours']:>9.2f}")
+    """Lines of the thread-scaling table: the camera-move and relight rows with each of ``--threads``
+    (1 first), speed-up over one thread per column; the 1 → 2 target ≥ 1.8×, 1 → 16 ≥ 12×."""
+    counts = sorted({int(t) for t in args.threads.split(",")} | {1})
+    runs = {}
+    for t in counts:
+        runs[t] = child_rows(args, t)
+        print(f"  thread scaling: {t} thread(s) done", flush=True)
+    lines = [f"thread scaling (ours only, subprocesses with NUMBA_NUM_THREADS = {', '.join(map(str, counts))};"
+             f" {os.cpu_count()} cores; targets 1 → 2 ≥ 1.8×, 1 → 16 ≥ 12×):",
+             f"  {'frame':34s} {'1 thread s':>10}" + "".join(f" {f'{t} thr s':>9} {'×':>6}" for t in counts[1:])]
+    for i, a in enumerate(runs[1]):
+        row = f"  {a['row']:34s} {a['ours']:>10.3f}"
+        for t in counts[1:]:
+            b = runs[t][i]
+            row += f" {b['ours']:>9.3f} {a['ours'] / b['ours']:>6.2f}"
+        lines.append(row)
     return lines
 
 
@@ -510,13 +572,31 @@ def main(argv=None):
     ap.add_argument("--memory", action="store_true", help="peak RSS growth of a fresh process rendering AS, 2 lights")
     ap.add_argument("--drag", action="store_true", help="frames per second over a 36-frame camera drag")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"), help="folder of speed_n{N}.txt")
+    ap.add_argument("--threads", default="1,2", help="thread counts of --threads-scaling (comma-separated)")
+    ap.add_argument("--scaling-only", action="store_true",
+                    help="only the thread-scaling table (no VTK needed: runs where pyvista/vtk are not installed)")
+    ap.add_argument("--tf-nodes", help="an .npz of the TF's nodes: written here if missing (needs pyvista), "
+                    "else read (TransferFunction.from_table) — for --scaling-only where pyvista is missing")
     ap.add_argument("--child-rows", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--child-memory", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     size = (args.size, args.size)
     if args.child_memory:
         return memory_child(args.n, size)
-    grid = datasets.supernova(n=args.n)
+    if args.tf_nodes:
+        if not os.path.exists(args.tf_nodes):
+            write_tf_nodes(args.tf_nodes)
+        os.environ[TF_NODES_ENV] = os.path.abspath(args.tf_nodes)
+    if args.scaling_only:
+        lines = ["$ python " + " ".join(sys.argv), "",
+                 f"supernova {args.n}³, {size[0]}x{size[1]}, the rows' scene; medians of {args.repeats}", ""]
+        lines += threads_scaling(args)
+        print("\n".join(lines))
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / f"speed_threads_n{args.n}.txt").write_text("\n".join(lines) + "\n")
+        return None
+    grid = supernova_grid(args.n)
     frames = Frames(grid, size, None)
     frames.step = frames.renderer.default_step()
     if args.child_rows:
