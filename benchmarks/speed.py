@@ -243,7 +243,8 @@ class Frames:
             return tf_change
         if kind == "first":
             def first(k):
-                r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(), lights=[light_at(0.0)])
+                r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(),
+                                 lights=[light_at(0.0)])
                 r2.cache.share(r.cache)
                 self.render(r2, model, self.cam)
             return first
