@@ -75,12 +75,18 @@ cfg = json.loads(sys.argv[1])
 kw = dict(transfer_function=cfg["tf"], lights=cfg["lights"], camera=cfg["camera"], model=cfg["model"],
           window_size=(cfg["size"], cfg["size"]))
 pa.render(datasets.cloud(n=16), **{**kw, "window_size": (16, 16)})   # warm-up: load the compiled kernels
+if cfg.get("start_at"):   # row (d): the concurrent loops start together
+    time.sleep(max(0.0, cfg["start_at"] - time.time()))
 t = time.perf_counter()
+renders = []
 for i, path in enumerate(cfg["files"]):
-    res = pa.render(pv.read(path), **kw)
+    grid = pv.read(path)
+    t1 = time.perf_counter()
+    res = pa.render(grid, **kw)
+    renders.append(time.perf_counter() - t1)
     res.save(os.path.join(cfg["out"], f"frame_{i:04d}.png"), exposure=cfg["exposure"])
 wall = time.perf_counter() - t
-print(json.dumps({"wall": wall, "threads": numba.get_num_threads()}))
+print(json.dumps({"wall": wall, "threads": numba.get_num_threads(), "render": renders}))
 """
 
 
@@ -90,13 +96,26 @@ EXPOSURE = 0.0
 
 
 def serial_loop(cfg, threads):
+    return concurrent_loops([cfg], threads)[0]
+
+
+def concurrent_loops(cfgs, threads):
+    """Run the serial loop of each config in its own subprocess, all at once; their JSON results."""
     env = dict(os.environ)
     if threads is not None:
         env["NUMBA_NUM_THREADS"] = str(threads)
-    proc = subprocess.run([sys.executable, "-c", LOOP, json.dumps(cfg)], capture_output=True, text=True, env=env)
-    if proc.returncode:
-        raise RuntimeError(proc.stderr[-3000:])
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    logs = [(tempfile.TemporaryFile("w+"), tempfile.TemporaryFile("w+")) for _ in cfgs]  # no pipe to fill up
+    procs = [subprocess.Popen([sys.executable, "-c", LOOP, json.dumps(c)], stdout=o, stderr=e, text=True, env=env)
+             for c, (o, e) in zip(cfgs, logs)]
+    outs = []
+    for proc, (o, e) in zip(procs, logs):
+        proc.wait()
+        o.seek(0)
+        e.seek(0)
+        if proc.returncode:
+            raise RuntimeError(e.read()[-3000:])
+        outs.append(json.loads(o.read().strip().splitlines()[-1]))
+    return outs
 
 
 def main(argv=None):
@@ -143,9 +162,23 @@ def main(argv=None):
         out.mkdir()
         r = serial_loop({**cfg, "out": str(out)}, threads)
         rows[name] = (args.frames / r["wall"], r["wall"], f"serial loop of render, {r['threads']} Numba thread"
-                      + ("s" if r["threads"] != 1 else ""))
+                      + ("s" if r["threads"] != 1 else ""), float(np.median(r["render"])))
+    # (d) the ceiling of any one-process-per-core scheme on this machine: the loop (a) run in
+    # --workers processes at once, no dask, each over every --workers-th file
+    for w in range(args.workers):
+        (tmp / "loop_d" / str(w)).mkdir(parents=True)
+    start_at = time.time() + 20.0  # after every process' imports and warm-up
+    parts = concurrent_loops([{**cfg, "files": files[w::args.workers], "out": str(tmp / "loop_d" / str(w)),
+                               "start_at": start_at} for w in range(args.workers)], 1)
+    wall = max(r["wall"] for r in parts)
+    rows["d"] = (args.frames / wall, wall, f"{args.workers} serial loops (a) at once, 1 thread each, no dask: "
+                 "the ceiling of one process per core", float(np.median([t for r in parts for t in r["render"]])))
 
-    cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    import dask
+
+    # as render_series(client=None) starts its cluster: the workers' Numba pool of one thread
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.NUMBA_NUM_THREADS": "1"}):
+        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None)
     client = Client(cluster)
     try:
         warm = [datasets.cloud(n=16, seed=s) for s in range(2 * args.workers)]
@@ -157,7 +190,7 @@ def main(argv=None):
         wall = time.perf_counter() - t
         assert res.n_failed == 0, [f.error for f in res.failed]
         rows["c"] = (args.frames / wall, wall, f"render_series, LocalCluster {args.workers} workers × 1 thread "
-                                               "(started, warm)")
+                                               "(started, warm)", float(np.median([f.times["classify"] + f.times["render"] for f in res.frames])))
         # the orbit on the warm cluster
         cams = pa.orbit(None, args.frames, elevation=20.0, start=pa.Camera(**CAMERA))
         okw = {k: v for k, v in kw.items() if k != "camera"}
@@ -172,19 +205,21 @@ def main(argv=None):
     wall = time.perf_counter() - t
     assert res.n_failed == 0
     rows["c'"] = (args.frames / wall, wall, f"render_series(client=None, workers={args.workers}), cold: "
-                                            "cluster start-up included")
+                                            "cluster start-up included",
+                  float(np.median([f.times["classify"] + f.times["render"] for f in res.frames])))
 
     # identical frames: the series' PNGs against the serial loop's
     same = sum(np.array_equal(np.asarray(_png(tmp / "series" / f"frame_{i:04d}.png")),
                               np.asarray(_png(tmp / "loop_a" / f"frame_{i:04d}.png"))) for i in range(args.frames))
 
-    say(f"{'row':4s} {'frames/s':>9s} {'wall s':>8s}  what")
-    say("-" * 96)
-    for k in ("a", "b", "c", "c'"):
-        fps, wall, what = rows[k]
-        say(f"({k}){'':{3 - len(k)}s} {fps:9.3f} {wall:8.2f}  {what}")
+    say(f"{'row':4s} {'frames/s':>9s} {'wall s':>8s} {'render s':>9s}  what (render s: median of a frame's Renderer build + render)")
+    say("-" * 106)
+    for k in ("a", "b", "c", "c'", "d"):
+        fps, wall, what, med = rows[k]
+        say(f"({k}){'':{3 - len(k)}s} {fps:9.3f} {wall:8.2f} {med:9.3f}  {what}")
     say()
-    for num, den, target in (("c", "a", 1.8), ("c", "b", 1.1), ("c'", "a", None), ("c'", "b", None)):
+    for num, den, target in (("c", "a", 1.8), ("c", "b", 1.1), ("c'", "a", None), ("c'", "b", None),
+                             ("d", "a", None), ("d", "b", None), ("c", "d", None)):
         ratio = rows[num][0] / rows[den][0]
         met = "" if target is None else (f"  target ≥ {target}: " + ("met" if ratio >= target else "NOT met"))
         say(f"({num})/({den}) = {ratio:.2f}{met}")

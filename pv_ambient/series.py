@@ -496,17 +496,32 @@ def _render_parameters() -> set:
     return params | set(MODEL_OPTIONS) | {"time_budget"}
 
 
-def _get_client(client, workers):
+def _get_client(client, workers, numba_threads=None):
     """(client, things to close afterwards, number of workers, Numba threads per worker or None)."""
     try:
+        import dask
         from distributed import Client, LocalCluster
     except ImportError:
         raise ImportError(MISSING_DISTRIBUTED.format(client)) from None
     if client is None:
         n = (os.cpu_count() or 1) if workers is None else check_int(workers, "workers", lo=1)
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+        threads = numba_threads or 1
+        # the workers' Numba thread pool no larger than the threads used: idle OpenMP threads of a
+        # larger pool spin after each parallel region and take cycles from the other workers. The
+        # nannies copy their spawn environment into this process' (the variable set here wins over
+        # dask's config): put back what this process had once the workers are started.
+        before = os.environ.get("NUMBA_NUM_THREADS")
+        os.environ["NUMBA_NUM_THREADS"] = str(threads)
+        try:
+            with dask.config.set({"distributed.nanny.pre-spawn-environ.NUMBA_NUM_THREADS": str(threads)}):
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+        finally:
+            if before is None:
+                os.environ.pop("NUMBA_NUM_THREADS", None)
+            else:
+                os.environ["NUMBA_NUM_THREADS"] = before
         c = Client(cluster)
-        return c, [c, cluster], n, 1
+        return c, [c, cluster], n, threads
     if isinstance(client, str):
         c = Client(client)
         return c, [c], len(c.scheduler_info().get("workers", {})), None
@@ -694,7 +709,7 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=None, came
                 with _WORKER_LOCK:
                     _WORKER["renderers"].clear()  # this process keeps no volume after the call
         else:
-            c, owned, n_workers, threads = _get_client(client, workers)
+            c, owned, n_workers, threads = _get_client(client, workers, numba_threads)
             threads = threads if numba_threads is None else numba_threads
             try:
                 n_workers = _run_on_cluster(c, FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance),
