@@ -528,14 +528,18 @@ def memory(args):
 
 def drag(frames, steps=36):
     """Frames per second over a ``steps``-frame camera drag (1° azimuth per frame, caches warm) in a
-    PyVista plotter with ``add_ambient_volume(..., interactive=True)``: the render window asks for
-    15 fps as VTK's interactor does during a drag, so each frame is rendered at the drag resolution
-    (half the window per axis); then the resting frame at full resolution."""
+    PyVista plotter with ``add_ambient_volume(..., interactive=True)`` (defaults: drag resolution half
+    the window per axis, drag step up to 8 resting steps): the render window asks for 15 fps as VTK's
+    interactor does during a drag, so each frame is rendered at the drag resolution and the step
+    doubles while frames are slower than 1/15 s; four drag frames before the clock (the drag-size
+    buffers, and the step found, as it is kept from one drag to the next); then the resting frame at
+    full resolution and the resting step."""
     import pyvista as pv
 
     w, h = frames.size
     lines = [f"camera drag ({steps} frames of 1° in a {w}x{h} plotter, interactive=True: drag frames at"
-             f" half resolution per axis; caches warm; target ≥ 10 fps):"]
+             f" half resolution per axis, step up to 8× while frames are slower than 1/15 s; caches warm;"
+             f" target ≥ 10 fps):"]
     for model in MODELS:
         pl = pv.Plotter(off_screen=True, window_size=frames.size)
         frames.cam.to_vtk(pl.camera)
@@ -544,20 +548,22 @@ def drag(frames, steps=36):
                                     step=frames.step)
         win = pl.ren_win
         win.SetDesiredUpdateRate(15.0)
-        pl.camera.Azimuth(1.0)
-        win.Render()  # the first drag frame warms the drag-size buffers
+        for _ in range(4):  # the first drag frames: the drag-size buffers, the drag step found
+            pl.camera.Azimuth(1.0)
+            win.Render()
         t = time.perf_counter()
         for _ in range(steps):
             pl.camera.Azimuth(1.0)
             win.Render()
         fps = steps / (time.perf_counter() - t)
-        drag_size = vol.result.window_size
+        drag_size, factor = vol.result.window_size, vol.step_factor
         win.SetDesiredUpdateRate(0.0001)
         t = time.perf_counter()
         win.Render()
         rest = time.perf_counter() - t
         assert vol.result.window_size == frames.size
-        lines.append(f"  {model:10s} {fps:6.2f} fps at {drag_size[0]}x{drag_size[1]}; resting frame {rest:.3f} s")
+        lines.append(f"  {model:10s} {fps:6.2f} fps at {drag_size[0]}x{drag_size[1]}, step ×{factor} at the end;"
+                     f" resting frame {rest:.3f} s")
         pl.close()
     return lines
 

@@ -78,3 +78,46 @@ def test_interactive_resolution_is_checked(scene, bad):
     with pytest.raises(ValueError, match="interactive_resolution"):
         pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, interactive_resolution=bad)
     pl.close()
+
+
+def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal_step(scene):
+    """A drag frame slower than the rate the window asks for doubles the ray step (up to
+    ``interactive_step``); each drag frame equals a render at that step and the drag resolution; fast
+    frames halve the step again; the resting frame is the normal render (resting step)."""
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="ambient_scattering",
+                                interactive=True, interactive_step=4)
+    base = vol.renderer.default_step()
+    win = pl.ren_win
+    win.SetDesiredUpdateRate(1e4)  # a budget of 0.1 ms: every frame is too slow
+    seen = []
+    for _ in range(4):
+        pl.camera.Azimuth(5.0)
+        factor = vol.step_factor
+        win.Render()
+        seen.append(factor)
+        ref = vol.renderer.render(camera=pa.Camera.from_vtk(pl.camera), window_size=vol.result.window_size,
+                                  model="ambient_scattering", step=base * factor)
+        assert np.array_equal(vol.volume_result.radiance, ref.radiance)
+    assert seen == [1, 2, 4, 4] and vol.step_factor == 4  # doubled per slow frame, capped
+    win.SetDesiredUpdateRate(1.0)  # a budget of 1 s: every frame is fast, the step halves
+    pl.camera.Azimuth(5.0)
+    win.Render()
+    assert vol.step_factor == 2
+    win.SetDesiredUpdateRate(0.0001)
+    win.Render()
+    assert not vol.moving and vol.result.window_size == SIZE
+    ref = pa.render(grid, transfer_function=tf, lights=lights, model="ambient_scattering", camera=pl.camera,
+                    window_size=SIZE)
+    assert np.array_equal(vol.volume_result.radiance, ref.radiance)
+    pl.close()
+
+
+@pytest.mark.parametrize("bad", [0, 3, 6])
+def test_interactive_step_is_a_power_of_two(scene, bad):
+    grid, tf, lights = scene
+    pl = _plotter()
+    with pytest.raises(ValueError, match="interactive_step"):
+        pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, interactive_step=bad)
+    pl.close()

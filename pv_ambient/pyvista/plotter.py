@@ -29,6 +29,11 @@ from .plane import add_result_plane, write_texture
 #: (a camera drag): VTK's interactors ask for 15 during a drag and 0.0001 when the camera rests.
 MOVING_RATE = 1.0
 
+#: A drag frame slower than this fraction of the frame time the render window asks for doubles its
+#: ray step (up to ``interactive_step``); one faster than ``STEP_SHRINK`` of it halves the step.
+STEP_GROW = 1.0
+STEP_SHRINK = 0.35
+
 
 def _is_plane(actor):
     return bool(getattr(actor, "_pv_ambient_plane", False))
@@ -100,7 +105,7 @@ class AmbientVolume:
 
     def __init__(self, plotter, renderer, *, model="emission_absorption", display=None, options=None, occlusion=True,
                  window_size=None, interactive_samples=4, refine_interval=100, interactive=False,
-                 interactive_resolution=0.5):
+                 interactive_resolution=0.5, interactive_step=8):
         self.plotter = plotter
         self.vtk_renderer = plotter.renderer
         self.renderer = renderer
@@ -113,6 +118,8 @@ class AmbientVolume:
         self.refine_interval = refine_interval
         self.interactive = bool(interactive)
         self.interactive_resolution = float(interactive_resolution)
+        self.interactive_step = int(interactive_step)
+        self.step_factor = 1  # the drag frames' ray step, in resting steps (a power of two)
         self.actor = None
         self.result = None
         self.volume_result = None
@@ -180,7 +187,29 @@ class AmbientVolume:
         return found
 
     def _state(self, cam, size):
-        return (_camera_key(cam), tuple(size), tuple((id(a), a.GetRedrawMTime()) for a in self.occluders))
+        return (_camera_key(cam), tuple(size), tuple((id(a), a.GetRedrawMTime()) for a in self.occluders),
+                self._moving_step())
+
+    def _moving_step(self):
+        """The ray step of a drag frame (``step_factor`` resting steps), or None: the resting step."""
+        if not self.moving or self.step_factor == 1 or self.model == "path_traced":
+            return None
+        step = self.options.get("step")
+        if step is None:
+            step = self.renderer.default_step(self.options.get("quality", "balanced"))
+        return step * self.step_factor
+
+    def _adapt_step(self, seconds):
+        """After a drag frame that took ``seconds``: double the drag step while frames are slower
+        than the render window's desired rate, halve it when they are well within it (as VTK's
+        ``AutoAdjustSampleDistances`` does)."""
+        if not self.moving or self.model == "path_traced":
+            return
+        budget = 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()
+        if seconds > STEP_GROW * budget and 2 * self.step_factor <= self.interactive_step:
+            self.step_factor *= 2
+        elif seconds < STEP_SHRINK * budget and self.step_factor > 1:
+            self.step_factor //= 2
 
     @property
     def _own_background(self):
@@ -211,12 +240,17 @@ class AmbientVolume:
         state = self._state(cam, size)
         if not force and state == self._key:
             return False
+        t = time.perf_counter()
         self._draw(cam, size, occluders)
         self._key = self._state(*self._view())  # after the plane set the camera (VTK normalises it)
+        self._adapt_step(time.perf_counter() - t)
         return True
 
     def _render_volume(self, cam, size, **extra):
         opts = dict(self.options)
+        step = self._moving_step()
+        if step is not None:
+            opts["step"] = step
         opts.update(extra)
         return self.renderer.render(camera=cam, window_size=size, model=self.model, **opts)
 
@@ -392,7 +426,8 @@ class AmbientVolume:
 
 def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", transfer_function=None, lights=None,
                        scalars=None, display=None, interactive=False, occlusion=True, renderer=None,
-                       interactive_samples=4, refine_interval=100, interactive_resolution=0.5, **render_options):
+                       interactive_samples=4, refine_interval=100, interactive_resolution=0.5, interactive_step=8,
+                       **render_options):
     """Render ``grid`` with the plotter's camera and window size and show it in the plotter, in
     front of or behind the plotter's opaque meshes.
 
@@ -443,8 +478,11 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         ``samples_per_pixel`` (or ``target_error``); without an event loop (off-screen) call
         :meth:`AmbientVolume.refine` yourself. While the camera is being dragged (the render window
         asks for an interactive frame rate, :attr:`AmbientVolume.moving`) the picture is rendered
-        at ``interactive_resolution`` of the window per axis; the frame drawn when the camera rests
-        is the full-resolution render.
+        at ``interactive_resolution`` of the window per axis and, while frames are slower than the
+        rate the window asks for, with a longer ray step (doubled per slow frame, up to
+        ``interactive_step`` times the resting one, halved again when frames are fast; VTK's
+        ``AutoAdjustSampleDistances`` does the same); the frame drawn when the camera rests is the
+        full-resolution render at the resting step.
     occlusion : bool, default: True
         Let the plotter's opaque meshes occlude the volume (above). False leaves them alone
         (the plane then hides whatever lies behind the focal plane).
@@ -458,6 +496,9 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     interactive_resolution : float, default: 0.5
         Interactive mode: the picture's resolution per axis while the camera moves, as a fraction
         of the window's, in [0.5, 1] (1: always full resolution).
+    interactive_step : int, default: 8
+        Interactive mode: the largest ray step while the camera moves, in resting steps (a power
+        of two ≥ 1; 1 keeps the resting step). Ignored by ``path_traced``.
     **render_options
         As :meth:`pv_ambient.Renderer.render`. Without ``background`` the volume is composited
         over the plotter's own background (its colour, or its gradient), as VTK's ``add_volume``
@@ -517,6 +558,9 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     interactive_samples = check_int(interactive_samples, "interactive_samples", lo=2)
     refine_interval = check_int(refine_interval, "refine_interval", lo=1)
     interactive_resolution = check_real(interactive_resolution, "interactive_resolution", lo=0.5, hi=1.0)
+    interactive_step = check_int(interactive_step, "interactive_step", lo=1)
+    if interactive_step & (interactive_step - 1):
+        raise ValueError(f"interactive_step must be a power of two (1, 2, 4, …), got {interactive_step!r}")
     window_size = render_options.pop("window_size", None)
     if window_size is not None:
         window_size = check_window_size(window_size)
@@ -528,7 +572,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     vol = AmbientVolume(plotter, renderer, model=model, display=display, options=render_options,
                         occlusion=occlusion, window_size=window_size, interactive_samples=interactive_samples,
                         refine_interval=refine_interval, interactive=interactive,
-                        interactive_resolution=interactive_resolution)
+                        interactive_resolution=interactive_resolution, interactive_step=interactive_step)
     try:
         vol.update(force=True)
     except BaseException:
