@@ -578,6 +578,8 @@ def main(argv=None):
     ap.add_argument("--threads-scaling", action="store_true", help="camera-move and relight rows with 1 and 2 threads")
     ap.add_argument("--memory", action="store_true", help="peak RSS growth of a fresh process rendering AS, 2 lights")
     ap.add_argument("--drag", action="store_true", help="frames per second over a 36-frame camera drag")
+    ap.add_argument("--drag-only", action="store_true",
+                    help="only the camera drag (no VTK table), into speed_drag_n{N}.txt")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"), help="folder of speed_n{N}.txt")
     ap.add_argument("--threads", default="1,2", help="thread counts of --threads-scaling (comma-separated)")
     ap.add_argument("--scaling-only", action="store_true",
@@ -594,6 +596,20 @@ def main(argv=None):
         if not os.path.exists(args.tf_nodes):
             write_tf_nodes(args.tf_nodes)
         os.environ[TF_NODES_ENV] = os.path.abspath(args.tf_nodes)
+    if args.drag_only:
+        grid = supernova_grid(args.n)
+        frames = Frames(grid, size, None)
+        frames.step = frames.renderer.default_step()
+        for model in MODELS:  # every model's caches warm before the drags
+            frames.render(frames.renderer, model, frames.cam)
+        lines = ["$ python " + " ".join(sys.argv), "",
+                 f"supernova {args.n}³, the rows' scene and renderer; {numba.get_num_threads()} Numba threads", ""]
+        lines += drag(frames)
+        print("\n".join(lines))
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / f"speed_drag_n{args.n}.txt").write_text("\n".join(lines) + "\n")
+        return None
     if args.scaling_only:
         lines = ["$ python " + " ".join(sys.argv), "",
                  f"supernova {args.n}³, {size[0]}x{size[1]}, the rows' scene; medians of {args.repeats}", ""]
