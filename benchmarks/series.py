@@ -178,7 +178,7 @@ def main(argv=None):
 
     # as render_series(client=None) starts its cluster: the workers' Numba pool of one thread
     with dask.config.set({"distributed.nanny.pre-spawn-environ.NUMBA_NUM_THREADS": "1"}):
-        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
     client = Client(cluster)
     try:
         warm = [datasets.cloud(n=16, seed=s) for s in range(2 * args.workers)]

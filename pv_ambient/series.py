@@ -514,7 +514,8 @@ def _get_client(client, workers, numba_threads=None):
         os.environ["NUMBA_NUM_THREADS"] = str(threads)
         try:
             with dask.config.set({"distributed.nanny.pre-spawn-environ.NUMBA_NUM_THREADS": str(threads)}):
-                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+                # the HTTP server on a free port: none taken from another cluster, no "port in use" warning
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0")
         finally:
             if before is None:
                 os.environ.pop("NUMBA_NUM_THREADS", None)
