@@ -570,6 +570,24 @@ def drag(frames, steps=36):
 
 # --- main --------------------------------------------------------------------------------------------
 
+def command_line():
+    return "$ python " + " ".join(sys.argv)
+
+
+def make_frames(n, size):
+    """The rows' :class:`Frames` on the supernova at n³, half-voxel step."""
+    frames = Frames(supernova_grid(n), size, None)
+    frames.step = frames.renderer.default_step()
+    return frames
+
+
+def write_result(args, name, lines):
+    """Write ``lines`` into ``{--out}/{name}_n{N}.txt``."""
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{name}_n{args.n}.txt").write_text("\n".join(lines) + "\n")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=128, help="volume size n³ (the issue: 128 and 256)")
@@ -597,38 +615,26 @@ def main(argv=None):
             write_tf_nodes(args.tf_nodes)
         os.environ[TF_NODES_ENV] = os.path.abspath(args.tf_nodes)
     if args.drag_only:
-        grid = supernova_grid(args.n)
-        frames = Frames(grid, size, None)
-        frames.step = frames.renderer.default_step()
+        frames = make_frames(args.n, size)
         for model in MODELS:  # every model's caches warm before the drags
             frames.render(frames.renderer, model, frames.cam)
-        lines = ["$ python " + " ".join(sys.argv), "",
-                 f"supernova {args.n}³, the rows' scene and renderer; {numba.get_num_threads()} Numba threads", ""]
-        lines += drag(frames)
+        lines = [command_line(), "", f"supernova {args.n}³, the rows' scene and renderer;"
+                 f" {numba.get_num_threads()} Numba threads", ""] + drag(frames)
         print("\n".join(lines))
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / f"speed_drag_n{args.n}.txt").write_text("\n".join(lines) + "\n")
-        return None
+        return write_result(args, "speed_drag", lines)
     if args.scaling_only:
-        lines = ["$ python " + " ".join(sys.argv), "",
-                 f"supernova {args.n}³, {size[0]}x{size[1]}, the rows' scene; medians of {args.repeats}", ""]
-        lines += threads_scaling(args)
+        lines = [command_line(), "", f"supernova {args.n}³, {size[0]}x{size[1]}, the rows' scene;"
+                 f" medians of {args.repeats}", ""] + threads_scaling(args)
         print("\n".join(lines))
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / f"speed_threads_n{args.n}.txt").write_text("\n".join(lines) + "\n")
-        return None
-    grid = supernova_grid(args.n)
-    frames = Frames(grid, size, None)
-    frames.step = frames.renderer.default_step()
+        return write_result(args, "speed_threads", lines)
+    frames = make_frames(args.n, size)
+    grid = frames.grid
     if args.child_rows:
         rows = measure_rows(frames, None, args.repeats, kinds=("camera", "relight"))
         print(json.dumps([{"row": d["row"], "ours": d["ours"]} for d in rows]))
         return None
 
-    lines = ["$ python " + " ".join(sys.argv), ""]
-    lines += check_count() + [""]
+    lines = [command_line(), ""] + check_count() + [""]
     print("\n".join(lines), flush=True)
     vtk = VtkPeer(grid, frames.renderer, size, frames.step)
     rows = measure_rows(frames, vtk, args.repeats)
@@ -648,9 +654,7 @@ def main(argv=None):
             table += extra
             lines += extra
     print("\n".join(table))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / f"speed_n{args.n}.txt").write_text("\n".join(lines) + "\n")
+    write_result(args, "speed", lines)
     return rows
 
 

@@ -497,7 +497,8 @@ def _render_parameters() -> set:
 
 
 def _get_client(client, workers, numba_threads=None):
-    """(client, things to close afterwards, number of workers, Numba threads per worker or None)."""
+    """(client, things to close afterwards, number of workers, Numba threads per worker: ``numba_threads``,
+    1 when None on the cluster started here, None — the workers' own setting — on an existing one)."""
     try:
         import dask
         from distributed import Client, LocalCluster
@@ -508,8 +509,9 @@ def _get_client(client, workers, numba_threads=None):
         threads = numba_threads or 1
         # the workers' Numba thread pool no larger than the threads used: idle OpenMP threads of a
         # larger pool spin after each parallel region and take cycles from the other workers. The
-        # nannies copy their spawn environment into this process' (the variable set here wins over
-        # dask's config): put back what this process had once the workers are started.
+        # config entry reaches every worker the nannies spawn (restarts too); dask takes its value
+        # from this process' environment when the variable is set there, hence the variable set
+        # too — and put back once the nannies (which copy it into this process) have started.
         before = os.environ.get("NUMBA_NUM_THREADS")
         os.environ["NUMBA_NUM_THREADS"] = str(threads)
         try:
@@ -525,9 +527,9 @@ def _get_client(client, workers, numba_threads=None):
         return c, [c, cluster], n, threads
     if isinstance(client, str):
         c = Client(client)
-        return c, [c], len(c.scheduler_info().get("workers", {})), None
+        return c, [c], len(c.scheduler_info().get("workers", {})), numba_threads
     if isinstance(client, Client):
-        return client, [], len(client.scheduler_info().get("workers", {})), None
+        return client, [], len(client.scheduler_info().get("workers", {})), numba_threads
     raise TypeError(f"client must be None, 'synchronous', a scheduler address or a distributed.Client, "
                     f"got {type(client).__name__}")
 
@@ -711,7 +713,6 @@ def render_series(volumes, *, out_dir, transfer_function=None, lights=None, came
                     _WORKER["renderers"].clear()  # this process keeps no volume after the call
         else:
             c, owned, n_workers, threads = _get_client(client, workers, numba_threads)
-            threads = threads if numba_threads is None else numba_threads
             try:
                 n_workers = _run_on_cluster(c, FrameSpec(renderer_kwargs, render_kwargs, display, bool(radiance),
                                                          threads, run),

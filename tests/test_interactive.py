@@ -71,12 +71,15 @@ def test_not_interactive_ignores_the_rate(scene):
     pl.close()
 
 
-@pytest.mark.parametrize("bad", [0.49, 1.5, 0.0])
-def test_interactive_resolution_is_checked(scene, bad):
+@pytest.mark.parametrize("option,bad", [("interactive_resolution", 0.49), ("interactive_resolution", 1.5),
+                                        ("interactive_resolution", 0.0), ("interactive_step", 0),
+                                        ("interactive_step", 3), ("interactive_step", 6)])
+def test_interactive_options_are_checked(scene, option, bad):
+    """interactive_resolution in [0.5, 1]; interactive_step a power of two ≥ 1."""
     grid, tf, lights = scene
     pl = _plotter()
-    with pytest.raises(ValueError, match="interactive_resolution"):
-        pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, interactive_resolution=bad)
+    with pytest.raises(ValueError, match=option):
+        pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, **{option: bad})
     pl.close()
 
 
@@ -111,13 +114,4 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
     ref = pa.render(grid, transfer_function=tf, lights=lights, model="ambient_scattering", camera=pl.camera,
                     window_size=SIZE)
     assert np.array_equal(vol.volume_result.radiance, ref.radiance)
-    pl.close()
-
-
-@pytest.mark.parametrize("bad", [0, 3, 6])
-def test_interactive_step_is_a_power_of_two(scene, bad):
-    grid, tf, lights = scene
-    pl = _plotter()
-    with pytest.raises(ValueError, match="interactive_step"):
-        pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, interactive_step=bad)
     pl.close()

@@ -190,9 +190,14 @@ class AmbientVolume:
         return (_camera_key(cam), tuple(size), tuple((id(a), a.GetRedrawMTime()) for a in self.occluders),
                 self._moving_step())
 
+    @property
+    def _step_adapts(self) -> bool:
+        """Whether the ray step follows the frame time now: the camera moves, the model ray-casts."""
+        return self.moving and self.model != "path_traced"
+
     def _moving_step(self):
         """The ray step of a drag frame (``step_factor`` resting steps), or None: the resting step."""
-        if not self.moving or self.step_factor == 1 or self.model == "path_traced":
+        if not self._step_adapts or self.step_factor == 1:
             return None
         step = self.options.get("step")
         if step is None:
@@ -203,7 +208,7 @@ class AmbientVolume:
         """After a drag frame that took ``seconds``: double the drag step while frames are slower
         than the render window's desired rate, halve it when they are well within it (as VTK's
         ``AutoAdjustSampleDistances`` does)."""
-        if not self.moving or self.model == "path_traced":
+        if not self._step_adapts:
             return
         budget = 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()
         if seconds > STEP_GROW * budget and 2 * self.step_factor <= self.interactive_step:

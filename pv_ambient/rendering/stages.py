@@ -166,16 +166,12 @@ class SceneStages:
     def albedo_range(self, radius):
         """(min, max) of the ball-mean albedo ā over the medium (where σ̄ > 0), all channels
         (cached with the ball grid: every frame keys its table by it)."""
-        key = ("albedo_range", float(radius))
-        if key not in self.cache:
+        def build():
             ball = self.ball_grid(radius)
-            inside = ball[..., 0] > 0
-            if not inside.any():
-                self.cache[key] = (0.0, 0.0)
-            else:
-                a = ball[..., 1:4][inside]
-                self.cache[key] = (float(a.min()), float(a.max()))
-        return self.cache[key]
+            a = ball[..., 1:4][ball[..., 0] > 0]
+            return (float(a.min()), float(a.max())) if a.size else (0.0, 0.0)
+
+        return self.cache.get(("albedo_range", float(radius)), build)
 
     def _table_key(self, phase, radius, quality):
         from ..stages.preintegration import albedo_nodes_for
