@@ -141,3 +141,15 @@ def walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block):
     if tb < t1:
         a, b, c = next_block(a, b, c, tx, ty, tz, tb, qx, qy, qz)
     return (a, b, c, tb), t, tb, m
+
+
+@scalar
+def walk_optical_depth(px, py, pz, qx, qy, qz, t0, t1, grid, block):
+    """``Σ grid[block] × length`` over the blocks ray ``p + t·q`` crosses on ``[t0, t1)``: with the
+    majorant grid, the majorant's optical depth, a deterministic upper bound of the medium's."""
+    tau = 0.0
+    walk = walk_start(px, py, pz, qx, qy, qz, t0, grid, block)
+    while walk[3] < t1:
+        walk, ta, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, grid, block)
+        tau += m * (tb - ta)
+    return tau

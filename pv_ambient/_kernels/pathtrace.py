@@ -20,6 +20,28 @@ Estimator (one path per call, RGB throughput ``β``, grey extinction):
 5. **Scattering**: ``β *= a`` (RGB albedo as a weight, so one path carries all channels),
    a new direction from the phase function by importance sampling (``phase_sample``: the
    weight ``p/pdf`` is exactly 1), and a new free flight from the collision point.
+
+**Point lights inside the medium** (``paths.equiangular``; docs/path_tracer.rst). A collision at
+distance ``d`` from a point light gets ``I/d²`` from next-event estimation: vertices next to a
+light inside the medium carry unbounded weights (fireflies; infinite variance without the ``d²``
+clamp). Two more sampling steps cancel it, both only within ``paths.eq_radius`` of the light:
+
+* **Equiangular distances** (Kulla & Fajardo 2012, :mod:`.equiangular`): on each segment's part
+  within the radius, one distance per point light with density ∝ ``1/d²``, its estimate
+  ``T(ta, t) σs(t) E T_l p`` (``T`` by ratio tracking) combined with the free-flight collision's
+  next-event estimate by the balance heuristic. The free-flight density ``σt T`` in the weights
+  is replaced by the deterministic lower bound ``σt exp(−τ̄)``, ``τ̄`` the majorant's optical
+  depth (any deterministic weights that sum to one keep the sum unbiased; a lower bound keeps
+  the free-flight share ``w·I/d²`` bounded by ``≈ σt π I / D``, ``D`` the segment's distance
+  from the light).
+* **Directions about the light**: the remaining ``1/D`` of a segment passing the light at
+  distance ``D`` is cancelled by sampling, at a vertex within the radius, the scattered direction
+  from a mixture: with probability :data:`CONE_SHARE` about a near light, the angle θ to it
+  uniform on [0, π] (solid-angle pdf ``1/(2π² sin θ)``, and ``D = r sin θ``), else from the phase
+  function; the path weight is ``p(θ)/pdf_mixture``.
+
+Without point lights within the radius neither draws a random number, so such scenes render
+bitwise as without them.
 6. **Termination**: after ``rr_depth`` collisions, Russian roulette with survival probability
    ``q = min(max(β), RR_MAX_SURVIVAL)`` (then ``β /= q``); ``max_depth`` collisions at most.
    Without the cap (0.999) a path in a conservative medium (albedo 1: β never drops) would only
@@ -42,56 +64,228 @@ from __future__ import annotations
 import math
 
 from ._jit import driver, prange, scalar
+from .equiangular import equiangular_pdf, equiangular_sample, equiangular_setup
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .phase import phase_eval, phase_sample
+from .majorant import walk_optical_depth
+from .phase import direction_about, phase_eval, phase_sample
 from .raycast import light_at, medium_albedo_emission
 from .rng import key
-from .tracking import delta_track, draw, ratio_track
+from .tracking import delta_track, draw, ratio_track, sigma_lookup
 
 #: Ratio tracking along shadow rays switches on Russian roulette below this transmittance.
 SHADOW_RR_BELOW = 0.05
 #: Largest survival probability of the path's Russian roulette (module docstring, item 6).
 RR_MAX_SURVIVAL = 0.999
+#: Floor of the equiangular density's distance from the ray (world units) when the light clamp is 0.
+EQ_D_MIN = 1e-20
+#: Share of scattered directions sampled about a point light within the equiangular radius.
+CONE_SHARE = 0.3
 
 
 @scalar
-def direct_light_nee(wx, wy, wz, dx, dy, dz, view, medium, lights, k, dim):
+def light_nee(l, wx, wy, wz, px, py, pz, dx, dy, dz, view, medium, lights, k, dim):
+    """Light ``l``'s ``E_l T_l p(θ_l)`` (rgb) at world point w (index point p) for a path travelling
+    along d; ``T_l`` by ratio tracking. Returns ``(r, g, b, dim)``."""
+    w2i, lo, hi = view.w2i, view.lo, view.hi
+    lkind, lvec = lights.kind, lights.vec
+    er, eg, eb, lx, ly, lz = light_at(l, lights, wx, wy, wz)
+    if er <= 0.0 and eg <= 0.0 and eb <= 0.0:
+        return 0.0, 0.0, 0.0, dim
+    # Shadow ray toward the light: to the light itself, or out of the box (directional).
+    if lkind[l] == 0:
+        vx = lvec[l, 0] - wx
+        vy = lvec[l, 1] - wy
+        vz = lvec[l, 2] - wz
+        dist = math.sqrt(vx * vx + vy * vy + vz * vz)
+    else:
+        dist = math.inf
+    qx, qy, qz = affine_vector(w2i, -lx, -ly, -lz)
+    t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+    t0 = max(t0, 0.0)
+    t1 = min(t1, dist)
+    T = 1.0
+    if t0 < t1:
+        T, dim = ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, SHADOW_RR_BELOW, k, dim)
+    if T <= 0.0:
+        return 0.0, 0.0, 0.0, dim
+    # Light propagates along (lx, ly, lz) and leaves toward the camera along −d.
+    w = T * phase_eval(lights.pkind, lights.g, -(lx * dx + ly * dy + lz * dz))
+    return er * w, eg * w, eb * w, dim
+
+
+@scalar
+def free_flight_proxy(sigma, px, py, pz, qx, qy, qz, ta, t, paths, medium):
+    """The deterministic stand-in for the free-flight density at distance ``t`` of the segment
+    ``p + s q``, ``s ≥ ta`` (extinction ``sigma`` there) in the MIS weights: ``σt exp(−τ̄)``, ``τ̄``
+    the majorant's optical depth (:func:`.majorant.walk_optical_depth`). The true density ``σt T``
+    is unknown in a heterogeneous medium; any deterministic weights that sum to one keep the
+    combination unbiased, and a lower bound of it (``T ≥ exp(−τ̄)``) keeps the free-flight share
+    of next-event estimation near a light bounded (module docstring)."""
+    tau = walk_optical_depth(px, py, pz, qx, qy, qz, ta, t, paths.eq_grid, medium.block)
+    return sigma * math.exp(-tau)
+
+
+@scalar
+def equiangular_span(l, lights, ox, oy, oz, dx, dy, dz, ta, tb, radius):
+    """Where the segment ``o + t d``, ``t ∈ [ta, tb]``, is sampled toward point light ``l``: its part
+    within ``radius`` of the light, ``[a, b]``, and the equiangular density's ``(delta, D, tau_a,
+    span)`` there (:func:`.equiangular.equiangular_setup`); ``span`` 0 where there is no such part."""
+    lvec = lights.vec
+    d_min = max(math.sqrt(lights.d2min), EQ_D_MIN)
+    delta, D, tau_a, span = equiangular_setup(ox, oy, oz, dx, dy, dz, lvec[l, 0], lvec[l, 1], lvec[l, 2],
+                                              ta, tb, d_min)
+    if D >= radius:
+        return ta, tb, delta, D, tau_a, 0.0
+    h = math.sqrt(radius * radius - D * D)
+    a = max(ta, delta - h)
+    b = min(tb, delta + h)
+    if not a < b:
+        return ta, tb, delta, D, tau_a, 0.0
+    if a > ta or b < tb:
+        delta, D, tau_a, span = equiangular_setup(ox, oy, oz, dx, dy, dz, lvec[l, 0], lvec[l, 1], lvec[l, 2],
+                                                  a, b, d_min)
+    return a, b, delta, D, tau_a, span
+
+
+@scalar
+def direct_light_nee(wx, wy, wz, dx, dy, dz, view, medium, lights, k, dim, eq, ox, oy, oz, ta, tb, t, paths,
+                     qx, qy, qz, sigma):
     """Σ_l E_l T_l p(θ_l) (rgb) at world point w for a path travelling along d; T_l by ratio tracking.
+
+    With ``eq`` the point lights' terms carry the free-flight strategy's MIS weight
+    ``p_ff/(p_ff + p_eq)`` (balance heuristic, module docstring): w is the collision at distance
+    ``t`` (extinction ``sigma``) on the segment ``o + s d``, ``s ∈ [ta, tb]`` (``q`` = ``d`` in index space).
 
     Returns ``(r, g, b, dim)``.
     """
-    w2i, lo, hi = view.w2i, view.lo, view.hi
-    lkind, lvec = lights.kind, lights.vec
     sr = 0.0
     sg = 0.0
     sb = 0.0
-    px, py, pz = affine_point(w2i, wx, wy, wz)
+    px, py, pz = affine_point(view.w2i, wx, wy, wz)
+    lkind = lights.kind
+    pf = -1.0
     for l in range(lkind.shape[0]):
-        er, eg, eb, lx, ly, lz = light_at(l, lights, wx, wy, wz)
-        if er <= 0.0 and eg <= 0.0 and eb <= 0.0:
+        r, g, b, dim = light_nee(l, wx, wy, wz, px, py, pz, dx, dy, dz, view, medium, lights, k, dim)
+        if eq and lkind[l] == 0:
+            a, bb, delta, D, _, span = equiangular_span(l, lights, ox, oy, oz, dx, dy, dz, ta, tb, paths.eq_radius)
+            if span > 0.0 and a <= t <= bb:
+                if pf < 0.0:
+                    # the segment's start in index space: w is at distance t along q
+                    pf = free_flight_proxy(sigma, px - t * qx, py - t * qy, pz - t * qz, qx, qy, qz, ta, t, paths,
+                                           medium)
+                w = pf / (pf + equiangular_pdf(t, delta, D, span))
+                r *= w
+                g *= w
+                b *= w
+        sr += r
+        sg += g
+        sb += b
+    return sr, sg, sb, dim
+
+
+@scalar
+def equiangular_nee(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz, ta, tb, view, medium, lights, paths, k, dim):
+    """The equiangular strategy on the segment ``o + t d``, ``t ∈ [ta, tb]`` (index-space ray
+    ``p + t q``): for each point light one distance ``t`` from :func:`.equiangular.equiangular_sample`
+    on the part within ``paths.eq_radius`` of the light (:func:`equiangular_span`) and
+    ``T(ta, t) σs(t) E_l T_l p(θ_l) / (p_ff + p_eq)`` (rgb) — its estimate of the light's
+    single-scattered radiance there times its balance-heuristic weight ``p_eq/(p_ff + p_eq)``;
+    ``T(ta, t)`` by ratio tracking. Returns ``(r, g, b, dim)``."""
+    lkind = lights.kind
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    for l in range(lkind.shape[0]):
+        if lkind[l] != 0:
             continue
-        # Shadow ray toward the light: to the light itself, or out of the box (directional).
+        a, b, delta, D, tau_a, span = equiangular_span(l, lights, ox, oy, oz, dx, dy, dz, ta, tb, paths.eq_radius)
+        if not span > 0.0:
+            continue
+        u = draw(k, dim)
+        dim += 1
+        t, pe = equiangular_sample(u, a, D, tau_a, span)
+        t = min(max(t, a), b)
+        x = px + t * qx
+        y = py + t * qy
+        z = pz + t * qz
+        s, k0, k1, f = sigma_lookup(medium, x, y, z)
+        if not s > 0.0:
+            continue
+        ar, ag, ab, _, _, _ = medium_albedo_emission(medium, k0, k1, f, x, y, z)
+        if ar <= 0.0 and ag <= 0.0 and ab <= 0.0:
+            continue
+        T, dim = ratio_track(px, py, pz, qx, qy, qz, ta, t, medium, SHADOW_RR_BELOW, k, dim)
+        if T <= 0.0:
+            continue
+        r, g, bl, dim = light_nee(l, ox + t * dx, oy + t * dy, oz + t * dz, x, y, z, dx, dy, dz, view, medium,
+                                  lights, k, dim)
+        c = T * s / (free_flight_proxy(s, px, py, pz, qx, qy, qz, ta, t, paths, medium) + pe)
+        sr += ar * r * c
+        sg += ag * g * c
+        sb += ab * bl * c
+    return sr, sg, sb, dim
+
+
+@scalar
+def scatter_direction(wx, wy, wz, dx, dy, dz, lights, paths, k, dim):
+    """The direction after scattering at world point w of a path travelling along d, and its weight
+    ``p(θ)/pdf``: from the phase function (weight 1) or, with ``paths.equiangular`` and point lights
+    within ``paths.eq_radius`` of w, from a mixture: with probability :data:`CONE_SHARE` a direction
+    about a near light chosen uniformly, its angle θ_l to the light uniform on [0, π]
+    (solid-angle pdf ``1/(2π² sin θ_l)``), else the phase function (module docstring).
+    Returns ``(dx, dy, dz, weight, dim)``."""
+    lkind, lvec, radius = lights.kind, lights.vec, paths.eq_radius
+    near = 0
+    if paths.equiangular:
+        for l in range(lkind.shape[0]):
+            if lkind[l] == 0:
+                vx = lvec[l, 0] - wx
+                vy = lvec[l, 1] - wy
+                vz = lvec[l, 2] - wz
+                d2 = vx * vx + vy * vy + vz * vz
+                if 0.0 < d2 < radius * radius:
+                    near += 1
+    if near == 0:
+        u1 = draw(k, dim)
+        u2 = draw(k, dim + 1)
+        nx, ny, nz, _ = phase_sample(lights.pkind, lights.g, u1, u2, dx, dy, dz)
+        return nx, ny, nz, 1.0, dim + 2
+    u0 = draw(k, dim)
+    u1 = draw(k, dim + 1)
+    u2 = draw(k, dim + 2)
+    dim += 3
+    if u0 < CONE_SHARE:
+        pick = min(int(u0 / CONE_SHARE * near), near - 1)
+        for l in range(lkind.shape[0]):
+            if lkind[l] == 0:
+                vx = lvec[l, 0] - wx
+                vy = lvec[l, 1] - wy
+                vz = lvec[l, 2] - wz
+                d2 = vx * vx + vy * vy + vz * vz
+                if 0.0 < d2 < radius * radius:
+                    if pick == 0:
+                        inv = 1.0 / math.sqrt(d2)
+                        nx, ny, nz = direction_about(math.cos(math.pi * u1), u2, vx * inv, vy * inv, vz * inv)
+                        break
+                    pick -= 1
+    else:
+        nx, ny, nz, _ = phase_sample(lights.pkind, lights.g, u1, u2, dx, dy, dz)
+    # the mixture's pdf at the chosen direction
+    cone = 0.0
+    for l in range(lkind.shape[0]):
         if lkind[l] == 0:
             vx = lvec[l, 0] - wx
             vy = lvec[l, 1] - wy
             vz = lvec[l, 2] - wz
-            dist = math.sqrt(vx * vx + vy * vy + vz * vz)
-        else:
-            dist = math.inf
-        qx, qy, qz = affine_vector(w2i, -lx, -ly, -lz)
-        t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
-        t0 = max(t0, 0.0)
-        t1 = min(t1, dist)
-        T = 1.0
-        if t0 < t1:
-            T, dim = ratio_track(px, py, pz, qx, qy, qz, t0, t1, medium, SHADOW_RR_BELOW, k, dim)
-        if T > 0.0:
-            # Light propagates along (lx, ly, lz) and leaves toward the camera along −d.
-            w = T * phase_eval(lights.pkind, lights.g, -(lx * dx + ly * dy + lz * dz))
-            sr += er * w
-            sg += eg * w
-            sb += eb * w
-    return sr, sg, sb, dim
+            d2 = vx * vx + vy * vy + vz * vz
+            if 0.0 < d2 < radius * radius:
+                c = (nx * vx + ny * vy + nz * vz) / math.sqrt(d2)
+                sin_t = math.sqrt(max(0.0, (1.0 - c) * (1.0 + c)))
+                if not sin_t > 0.0:
+                    return nx, ny, nz, 0.0, dim
+                cone += 1.0 / (2.0 * math.pi * math.pi * sin_t)
+    p = phase_eval(lights.pkind, lights.g, nx * dx + ny * dy + nz * dz)
+    return nx, ny, nz, p / ((1.0 - CONE_SHARE) * p + CONE_SHARE * cone / near), dim
 
 
 @scalar
@@ -102,7 +296,7 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
     Returns ``(r, g, b, hit)``: the radiance estimate and 1.0 when the primary ray collided.
     """
     cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
-    bg, max_depth, rr_depth, seed = paths.bg, paths.max_depth, paths.rr_depth, paths.seed
+    bg, max_depth, rr_depth, seed, eq = paths.bg, paths.max_depth, paths.rr_depth, paths.seed, paths.equiangular
     k = key(seed, pixel, sample)
     dim = 0
     ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, width, height)
@@ -125,8 +319,17 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
         k0 = 0
         k1 = 0
         f = 0.0
+        sig = 0.0
         if t0 < t1:
-            collided, t, _, k0, k1, f, dim = delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim)
+            collided, t, sig, k0, k1, f, dim = delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, dim)
+            if eq:
+                # The equiangular strategy's share of the point lights' light scattered at the
+                # segment (the collision's NEE below carries the free-flight share).
+                nr, ng, nb, dim = equiangular_nee(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz, t0, t1, view,
+                                                  medium, lights, paths, k, dim)
+                lr += br * nr
+                lg += bgc * ng
+                lb += bb * nb
         if not collided:
             # Escaped: only the primary ray sees the background.
             if depth == 0:
@@ -156,7 +359,8 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
         if q <= 0.0:
             break
         # Next-event estimation to every light.
-        nr, ng, nb, dim = direct_light_nee(wx, wy, wz, dx, dy, dz, view, medium, lights, k, dim)
+        nr, ng, nb, dim = direct_light_nee(wx, wy, wz, dx, dy, dz, view, medium, lights, k, dim, eq, ox, oy, oz,
+                                           t0, t1, t, paths, qx, qy, qz, sig)
         lr += br * nr
         lg += bgc * ng
         lb += bb * nb
@@ -172,11 +376,14 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
             br /= q
             bgc /= q
             bb /= q
-        # Sample the scattered direction from the phase function (weight p/pdf = 1).
-        u1 = draw(k, dim)
-        u2 = draw(k, dim + 1)
-        dim += 2
-        dx, dy, dz, _ = phase_sample(lights.pkind, lights.g, u1, u2, dx, dy, dz)
+        # Sample the scattered direction (from the phase function: weight p/pdf = 1).
+        dx, dy, dz, wd, dim = scatter_direction(wx, wy, wz, dx, dy, dz, lights, paths, k, dim)
+        if wd != 1.0:
+            br *= wd
+            bgc *= wd
+            bb *= wd
+            if not max(br, max(bgc, bb)) > 0.0:
+                break
         # Renormalise so rounding cannot drift over many bounces.
         inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
         dx *= inv

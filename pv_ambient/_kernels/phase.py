@@ -122,8 +122,14 @@ def phase_sample(kind, g, u1, u2, wx, wy, wz):
     Returns ``(dx, dy, dz, pdf)``: a unit direction (along the propagation after scattering)
     and its solid-angle pdf, equal to ``phase_eval(kind, g, dot(d, w))``.
     """
-    # Sample the polar cosine and the azimuth.
     mu = phase_sample_cos(kind, g, u1)
+    dx, dy, dz = direction_about(mu, u2, wx, wy, wz)
+    return dx, dy, dz, phase_eval(kind, g, mu)
+
+
+@scalar
+def direction_about(mu, u2, wx, wy, wz):
+    """The unit direction at polar cosine ``mu`` from the unit vector ``w`` and azimuth ``φ = 2π u2``."""
     sin_theta = math.sqrt(max(0.0, (1.0 - mu) * (1.0 + mu)))
     phi = TWO_PI * u2
     sx = sin_theta * math.cos(phi)
@@ -143,7 +149,7 @@ def phase_sample(kind, g, u1, u2, wx, wy, wz):
     dx = sx * t1x + sy * t2x + mu * wx
     dy = sx * t1y + sy * t2y + mu * wy
     dz = sx * t1z + sy * t2z + mu * wz
-    return dx, dy, dz, phase_eval(kind, g, mu)
+    return dx, dy, dz
 
 
 # --- thin serial drivers for the Python API (pv_ambient.inputs.phase) and tests -------------------

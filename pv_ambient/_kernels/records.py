@@ -50,8 +50,11 @@ Ambient = namedtuple("Ambient", "radius ball amb D a_nodes tau_lo_log tau_dlog")
 #: Diffusion: the (φ, F) field per channel and the mean cosine of the phase function.
 Diffusion = namedtuple("Diffusion", "field g")
 
-#: Path tracing: background (rgb), largest depth, Russian-roulette depth and seed.
-Paths = namedtuple("Paths", "bg max_depth rr_depth seed")
+#: Path tracing: background (rgb), largest depth, Russian-roulette depth, seed, whether point
+#: lights are also sampled by equiangular distance sampling (1) or by free flight alone (0), the
+#: grid whose optical depth enters its MIS weights (the majorant) and the world radius around
+#: each point light where it samples (:mod:`.pathtrace`).
+Paths = namedtuple("Paths", "bg max_depth rr_depth seed equiangular eq_grid eq_radius")
 
 #: Placeholders for the parts a model does not use.
 NONE4 = np.zeros((1, 1, 1, 1), np.float32)

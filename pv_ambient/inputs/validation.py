@@ -33,6 +33,12 @@ def check_real(value, name: str, *, lo=None, hi=None, lo_open=False, hi_open=Fal
     return out
 
 
+def check_bool(value, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {type(value).__name__} {show_value(value)}")
+    return bool(value)
+
+
 def check_int(value, name: str, *, lo=None) -> int:
     if isinstance(value, bool) or not isinstance(value, (Integral, np.integer)):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {show_value(value)}")

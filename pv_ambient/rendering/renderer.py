@@ -461,7 +461,7 @@ class Renderer(SceneStages):
     def path_trace(self, camera=None, window_size=None, *, phase=None, samples_per_pixel=DEFAULT_SPP,
                    target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
                    batch=16, light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend=None,
-                   time_limit=None) -> RenderResult:
+                   time_limit=None, equiangular=True) -> RenderResult:
         """Render the unbiased path-traced reference of this scene (no denoising; ``render(model=
         "path_traced")`` is the same with the quality presets and the denoiser).
 
@@ -478,7 +478,7 @@ class Renderer(SceneStages):
         **others
             As :func:`pv_ambient.stages.reference.path_trace` (``phase``, ``samples_per_pixel``,
             ``target_error``, ``max_depth``, ``seed``, ``background``, ``progress_bar``, ``batch``,
-            ``light_clamp``, ``rr_depth``, ``time_limit``).
+            ``light_clamp``, ``rr_depth``, ``time_limit``, ``equiangular``).
 
         Returns
         -------
@@ -509,7 +509,8 @@ class Renderer(SceneStages):
                          phase=phase, samples_per_pixel=samples_per_pixel, target_error=target_error,
                          max_depth=max_depth, seed=seed, background=background, progress_bar=progress_bar,
                          batch=batch, light_clamp=light_clamp, rr_depth=rr_depth, backend=backend,
-                         time_limit=time_limit, device_cache=self.device_cache if backend == "cuda" else None)
+                         time_limit=time_limit, device_cache=self.device_cache if backend == "cuda" else None,
+                         equiangular=equiangular)
         reached, target = out.metadata.get("relative_error"), out.metadata.get("target_error")
         if target is not None and time_limit is None and not reached <= target:
             warnings.warn(f"target_error={target:g} was not reached: the relative error is {reached:.3g} after "

@@ -24,12 +24,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..inputs.validation import check_int, check_real, check_rgb
+from ..inputs.validation import check_bool, check_int, check_real, check_rgb
 from ..backend import resolve_backend
 from ..inputs.lights import pack_lights
 
 #: Majorant block size (samples per axis) of the trackers.
 MAJORANT_BLOCK = 8
+#: Equiangular sampling's default radius around a point light, as a fraction of the box diagonal.
+EQ_RADIUS = 0.25
 #: Russian roulette on the path throughput starts after this many collisions.
 RR_DEPTH = 3
 _NO_LIMIT = 2 ** 62
@@ -68,7 +70,7 @@ class Traced(NamedTuple):
 def path_trace(geometry, optics, majorant, lights, camera, window_size, *, samples_per_pixel, block=MAJORANT_BLOCK,
                phase=None, target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
                batch=16, light_clamp=None, rr_depth=RR_DEPTH, backend="cpu", time_limit=None,
-               device_cache=None) -> Traced:
+               device_cache=None, equiangular=True, equiangular_radius=None) -> Traced:
     """Trace the unbiased reference image of a scene (:meth:`pv_ambient.Renderer.path_trace` is the
     public entry point; it passes its cached arrays).
 
@@ -122,10 +124,15 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
         batch is a single sample, which times one pass.
     device_cache : pv_ambient.backend.DeviceCache, optional
         The scene's arrays resident on the GPU (``backend="cuda"``).
-
-    Returns
-    -------
-    Traced
+    equiangular : bool, default: True
+        Also sample each path segment's distance toward every point light equiangularly (Kulla &
+        Fajardo 2012) and combine it with the free-flight collision's next-event estimate by
+        multiple importance sampling (:mod:`pv_ambient._kernels.pathtrace`): finite variance for
+        a point light inside the medium, where free flight alone gives fireflies. Same expectation
+        either way; no effect (and the same random numbers) without point lights.
+    equiangular_radius : float, optional
+        World distance from a point light within which ``equiangular`` samples distances and
+        directions toward it; default a quarter of the box's diagonal.
     """
     from .._kernels import records as K
     from .._kernels.pathtrace import pathtrace_image
@@ -146,6 +153,11 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     light_clamp = check_real(light_clamp, "light_clamp", lo=0.0)
     ph = as_phase(phase)
     backend = resolve_backend(backend)
+    eq = check_bool(equiangular, "equiangular")
+    c = geometry.corners
+    diag = float(np.max(np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)))
+    eq_radius = (EQ_RADIUS * diag if equiangular_radius is None
+                 else check_real(equiangular_radius, "equiangular_radius", lo=0.0))
 
     t_start = time.perf_counter()
     w, h = size
@@ -161,7 +173,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
         n = spp
     else:
         args = (K.view_of(cam, size, geom), K.medium_of(optics, majorant, block),
-                K.lights_of(pack_lights(lights), ph, light_clamp * light_clamp), K.Paths(bg, depth, rr_depth, seed))
+                K.lights_of(pack_lights(lights), ph, light_clamp * light_clamp), K.Paths(bg, depth, rr_depth, seed, int(eq), majorant, eq_radius))
         bar = None
         sums = None
         if backend == "cuda":
@@ -213,7 +225,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
             "max_depth": max_depth, "target_error": target, "relative_error": rel, "window_size": size,
             "phase": repr(ph), "lights": len(lights), "background": bg.tolist(),
             "light_clamp": light_clamp, "majorant_block": block, "rr_depth": rr_depth, "batch": batch,
-            "time_limit": limit, "backend": backend, "device_memory": device_cache.nbytes if backend == "cuda" else 0}
+            "time_limit": limit, "equiangular": eq, "equiangular_radius": eq_radius, "backend": backend, "device_memory": device_cache.nbytes if backend == "cuda" else 0}
     return Traced(mean.astype(np.float32), alpha.astype(np.float32), se.astype(np.float32), meta)
 
 
