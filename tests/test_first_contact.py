@@ -40,9 +40,26 @@ def test_radiance_with_explicit_lights_is_bit_identical_to_0_2_0():
         warnings.simplefilter("ignore")  # phase given to EA/AO: the new unused-option warning
         new = mod.render_all()
     assert sorted(new) == sorted(saved.files)
-    moved = [k for k in saved.files if not np.array_equal(saved[k], new[k])]
+    # By design since: path_traced samples a point light within its equiangular radius (a quarter of
+    # the box diagonal) also equiangularly (issue 19) — a different estimator of the same image. The
+    # supernova's light is inside that radius (the cloud's is not: its images did not move). Checked
+    # instead: free flight alone (equiangular=False, the options render() passes) reproduces the saved
+    # image bit for bit, the CLI's image equals the API's, and the new image has the saved one's
+    # expectation (z-test on the per-pixel differences at 4σ: false alarm 6e-5).
+    by_design = {"supernova/pt/radiance", "supernova/cli_pt/radiance"}
+    moved = [k for k in saved.files if k not in by_design and not np.array_equal(saved[k], new[k])]
     assert not moved, f"radiance changed: {moved}"
     assert all(float(saved[k].max()) > 0 for k in saved.files if "radiance" in k)  # nothing trivially black
+    name, vol, tf, lights, g, cam = mod.scenes()[0]
+    assert name == "supernova"
+    r = pa.Renderer(datasets.supernova(n=vol["n"]), transfer_function=dict(tf),
+                    lights=[pa.PointLight(d["position"], d["intensity"]) for d in lights])
+    ff = r.path_trace(pa.Camera(**cam), mod.SIZE, phase=g, samples_per_pixel=4, seed=7,
+                      light_clamp=0.25 * r.default_step(), equiangular=False)
+    assert np.array_equal(ff.radiance, saved["supernova/pt/radiance"])
+    assert np.array_equal(new["supernova/cli_pt/radiance"], new["supernova/pt/radiance"])
+    d = (new["supernova/pt/radiance"] - saved["supernova/pt/radiance"]).astype(float).mean(axis=2).ravel()
+    assert abs(d.mean() / (d.std(ddof=1) / np.sqrt(d.size))) < 4
 
 
 # -- lights not given: the default rig; lights=(): black with a warning ------------------------------------
