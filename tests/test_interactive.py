@@ -158,3 +158,35 @@ def test_a_camera_move_recomputes_nothing_view_independent(scene, monkeypatch):
                                                                            model=model)
         assert np.array_equal(got.radiance, ref.radiance) and not np.array_equal(got.radiance, moved.radiance)
 
+
+def test_drag_frames_start_no_progress_bar_and_move_the_plane(scene, monkeypatch):
+    """Why: a drag frame started a delayed progress bar (a thread) per render stage, and built a
+    new texture only to read the plane's corners. Drag frames start no bar (the resting frame still
+    may); the plane follows the camera exactly as a new plane would."""
+    from pv_ambient.rendering import request
+
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="single_scattering",
+                                interactive=True)
+    monkeypatch.delenv("PYTEST_CURRENT_TEST")  # outside pytest a render stage starts a delayed bar
+    started = []
+    real = request._DelayedBar
+
+    def counted(*a, **k):
+        started.append(a[0])
+        return real(*a, **k)
+
+    monkeypatch.setattr(request, "_DelayedBar", counted)
+    win = pl.ren_win
+    win.SetDesiredUpdateRate(15.0)
+    for _ in range(2):
+        pl.camera.Azimuth(7.0)
+        win.Render()
+        assert vol.moving and started == []
+        points = pv.wrap(vol.actor.GetMapper().GetInputDataObject(0, 0)).points
+        np.testing.assert_allclose(points, vol.result.to_plane().points, rtol=0, atol=1e-6)
+    win.SetDesiredUpdateRate(0.0001)
+    win.Render()
+    assert not vol.moving and started  # the resting frame: the default delayed bars
+    pl.close()

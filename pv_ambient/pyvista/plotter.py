@@ -256,6 +256,8 @@ class AmbientVolume:
         step = self._moving_step()
         if step is not None:
             opts["step"] = step
+        if self.moving:  # a drag frame takes a fraction of a second: no delayed progress bar (its thread)
+            opts.setdefault("progress_bar", False)
         opts.update(extra)
         return self.renderer.render(camera=cam, window_size=size, model=self.model, **opts)
 
@@ -302,9 +304,8 @@ class AmbientVolume:
             pv.set_new_attribute(actor, "_pv_ambient_plane", True)
             self.actor = actor
             return
-        plane = result.to_plane(**self.display)
         data = pv.wrap(self.actor.GetMapper().GetInputDataObject(0, 0))
-        data.points = plane.points
+        data.points = result.plane_corners()  # the texture is written in place: no new one is built
         write_texture(self.actor.GetTexture(), result.to_uint8(**self.display))
         self.vtk_renderer.ResetCameraClippingRange()
 
