@@ -64,6 +64,7 @@ def test_not_interactive_ignores_the_rate(scene):
     grid, tf, lights = scene
     pl = _plotter()
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf)
+    assert vol.interactive_step == 16  # the default cap of the drag step (the 256³ drag's 10 fps)
     pl.ren_win.SetDesiredUpdateRate(15.0)
     assert not vol.moving
     vol.update(force=True)
