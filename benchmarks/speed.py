@@ -529,7 +529,7 @@ def memory(args):
 def drag(frames, steps=36):
     """Frames per second over a ``steps``-frame camera drag (1° azimuth per frame, caches warm) in a
     PyVista plotter with ``add_ambient_volume(..., interactive=True)`` (defaults: drag resolution half
-    the window per axis, drag step up to 8 resting steps): the render window asks for 15 fps as VTK's
+    the window per axis, drag step up to 16 resting steps): the render window asks for 15 fps as VTK's
     interactor does during a drag, so each frame is rendered at the drag resolution and the step
     doubles while frames are slower than 1/15 s; four drag frames before the clock (the drag-size
     buffers, and the step found, as it is kept from one drag to the next); then the resting frame at
@@ -538,7 +538,7 @@ def drag(frames, steps=36):
 
     w, h = frames.size
     lines = [f"camera drag ({steps} frames of 1° in a {w}x{h} plotter, interactive=True: drag frames at"
-             f" half resolution per axis, step up to 8× while frames are slower than 1/15 s; caches warm;"
+             f" half resolution per axis, step up to 16× while frames are slower than 1/15 s; caches warm;"
              f" target ≥ 10 fps):"]
     for model in MODELS:
         pl = pv.Plotter(off_screen=True, window_size=frames.size)
@@ -551,12 +551,27 @@ def drag(frames, steps=36):
         for _ in range(4):  # the first drag frames: the drag-size buffers, the drag step found
             pl.camera.Azimuth(1.0)
             win.Render()
+        parts = []  # per frame: the whole frame, our update, the renderer's preparation and ray cast
+        update = vol.update
+
+        def timed_update(*a, **k):
+            t0 = time.perf_counter()
+            out = update(*a, **k)
+            meta = vol.volume_result.metadata
+            parts[-1][1:] = [time.perf_counter() - t0, meta["time_prepare"], meta["time_render"]]
+            return out
+
+        vol.update = timed_update  # the observer calls it through the instance
         t = time.perf_counter()
         for _ in range(steps):
             pl.camera.Azimuth(1.0)
+            parts.append([time.perf_counter(), 0.0, 0.0, 0.0])
             win.Render()
+            parts[-1][0] = time.perf_counter() - parts[-1][0]
         fps = steps / (time.perf_counter() - t)
+        del vol.update
         drag_size, factor = vol.result.window_size, vol.step_factor
+        frame, ours, prep, cast = np.median(np.array(parts), axis=0) * 1e3
         win.SetDesiredUpdateRate(0.0001)
         t = time.perf_counter()
         win.Render()
@@ -564,6 +579,8 @@ def drag(frames, steps=36):
         assert vol.result.window_size == frames.size
         lines.append(f"  {model:10s} {fps:6.2f} fps at {drag_size[0]}x{drag_size[1]}, step ×{factor} at the end;"
                      f" resting frame {rest:.3f} s")
+        lines.append(f"  {'':10s} median drag frame {frame:.0f} ms: ray cast {cast:.0f}, render preparation {prep:.0f},"
+                     f" rest of our update {ours - cast - prep:.0f} (composite, texture), VTK {frame - ours:.0f}")
         pl.close()
     return lines
 

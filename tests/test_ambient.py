@@ -125,10 +125,12 @@ def test_camera_move_and_relight_reuse_caches():
     r.set_lights([moved, LIGHTS[1]])
     render(r, "ambient_scattering", propagation="tube")
     new = set(r.cache) - keys
-    # only the moved light's volumes are computed, and the baked in-scattering of the new set of
-    # lights (isotropic phase), which replaces the old set's
-    assert new and all(moved in (k[1] if k[0] == "incident" else k) for k in new)
-    assert sum(k[0] == "incident" for k in new) == 1 and sum(k[0] == "incident" for k in r.cache) == 1
+    # only the moved light's volumes are computed, and the entries of the new set of lights — the
+    # baked in-scattering (isotropic phase), the light volumes side by side — which replace the old set's
+    per_set = ("incident", "tau_stack", "front_stack")
+    assert new and all(moved in (k[1] if k[0] in per_set else k) for k in new)
+    for kind in per_set:
+        assert sum(k[0] == kind for k in new) == 1 and sum(k[0] == kind for k in r.cache) == 1
 
 
 def test_auto_rules():

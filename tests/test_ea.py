@@ -176,3 +176,50 @@ def test_ray_end_stops_rays_exactly():
         pa.render(g, transfer_function=tf, camera=cam, window_size=size, ray_end=np.ones((3, 3)))
     with pytest.raises(ValueError, match="ray_end must hold distances"):
         pa.render(g, transfer_function=tf, camera=cam, window_size=size, ray_end=-t_end)
+
+
+def test_tiled_driver_renders_each_pixel_of_its_rows_once(monkeypatch):
+    """Why: the CPU driver marches TILE² pixel tiles (cache locality), not rows; a band of rows whose
+    height and width are no multiple of the tile must still get every pixel, as one ray alone gives
+    it, and nothing outside the band, with one thread or two."""
+    import numba
+
+    from pv_ambient._kernels import raycast
+    from pv_ambient.rendering import renderer as R
+
+    captured = {}
+    real = R.run_raycast
+
+    def capture(args, rad, alpha, **kw):
+        captured["args"] = args
+        return real(args, rad, alpha, **kw)
+
+    monkeypatch.setattr(R, "run_raycast", capture)
+    from pv_ambient import datasets
+
+    grid = datasets.cloud(n=16)
+    W, H = 2 * raycast.TILE + 5, 2 * raycast.TILE + 13
+    pa.render(grid, window_size=(W, H), camera=Camera((2, -3, 1), (0, 0, 0), (0, 0, 1), view_angle=35))
+    args = captured["args"]
+    r0, r1 = 3, H - 2
+    out = []
+    n0 = numba.get_num_threads()
+    for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+        numba.set_num_threads(threads)
+        try:
+            rad = np.full((H, W, 3), np.nan, np.float32)
+            alpha = np.full((H, W), np.nan, np.float32)
+            raycast.raycast_image(*args, r0, r1, rad, alpha)
+        finally:
+            numba.set_num_threads(n0)
+        out.append((rad, alpha))
+    ref_rad = np.full_like(rad, np.nan)
+    ref_alpha = np.full_like(alpha, np.nan)
+    for j in range(r0, r1):
+        for i in range(W):
+            raycast.raycast_pixel(*args, j, i, ref_rad, ref_alpha)
+    for rad, alpha in out:  # every thread count: the same pixels, bit for bit
+        assert np.isnan(alpha[:r0]).all() and np.isnan(alpha[r1:]).all()
+        assert (alpha[r0:r1] > 0).mean() > 0.2  # the volume covers part of the band
+        np.testing.assert_array_equal(rad, ref_rad)
+        np.testing.assert_array_equal(alpha, ref_alpha)

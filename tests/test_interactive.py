@@ -64,6 +64,7 @@ def test_not_interactive_ignores_the_rate(scene):
     grid, tf, lights = scene
     pl = _plotter()
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf)
+    assert vol.interactive_step == 16  # the default cap of the drag step (the 256³ drag's 10 fps)
     pl.ren_win.SetDesiredUpdateRate(15.0)
     assert not vol.moving
     vol.update(force=True)
@@ -114,4 +115,79 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
     ref = pa.render(grid, transfer_function=tf, lights=lights, model="ambient_scattering", camera=pl.camera,
                     window_size=SIZE)
     assert np.array_equal(vol.volume_result.radiance, ref.radiance)
+    pl.close()
+
+
+def test_a_camera_move_recomputes_nothing_view_independent(scene, monkeypatch):
+    """Why: every drag frame sorted the lights out again (a minimum over each light volume) and
+    copied the light volumes side by side (``np.stack``): view-independent passes over volume-sized
+    arrays. A camera move must find them cached — the same arrays, no pass over the scattering
+    nodes — and a relight must still replace them (the image equals a fresh renderer's)."""
+    from pv_ambient.rendering import renderer as R
+    from pv_ambient.rendering.stages import SceneStages
+
+    grid, tf, lights = scene
+    two = [lights[0], pa.PointLight((-1.0, 1.0, 0.5), intensity=2.0)]
+    records = []
+    real = R.run_raycast
+
+    def capture(args, rad, alpha, **kw):
+        records.append(args)
+        return real(args, rad, alpha, **kw)
+
+    monkeypatch.setattr(R, "run_raycast", capture)
+    for model, lts in (("single_scattering", lights), ("ambient_scattering", two)):
+        r = pa.Renderer(grid, transfer_function=tf, lights=lts)
+        r.render(camera=CAMERA, window_size=(16, 12), model=model)
+
+        def forbidden(*a, **k):
+            raise AssertionError("a camera move went over the scattering nodes again")
+
+        with monkeypatch.context() as m:
+            m.setattr(SceneStages, "_scattering_nodes", forbidden)
+            cam = pa.Camera((2.0, -3.8, 1.4), CAMERA.focal_point, CAMERA.view_up, view_angle=30.0)
+            moved = r.render(camera=cam, window_size=(16, 12), model=model)
+        tau0, tau1 = records[-2][5].tau, records[-1][5].tau
+        assert tau0 is tau1 and tau1.shape[-1] == len(lts)  # the same array, one component per light
+        if len(lts) == 1:
+            assert np.shares_memory(tau1, r.optical_depth(lts[0], r.light_grid()))  # a view: no copy
+        relit = lts[:-1] + [pa.PointLight((0.5, 0.5, 1.5), intensity=3.0)]
+        r.set_lights(relit)
+        got = r.render(camera=cam, window_size=(16, 12), model=model)
+        assert records[-1][5].tau is not tau1
+        ref = pa.Renderer(grid, transfer_function=tf, lights=relit).render(camera=cam, window_size=(16, 12),
+                                                                           model=model)
+        assert np.array_equal(got.radiance, ref.radiance) and not np.array_equal(got.radiance, moved.radiance)
+
+
+def test_drag_frames_start_no_progress_bar_and_move_the_plane(scene, monkeypatch):
+    """Why: a drag frame started a delayed progress bar (a thread) per render stage, and built a
+    new texture only to read the plane's corners. Drag frames start no bar (the resting frame still
+    may); the plane follows the camera exactly as a new plane would."""
+    from pv_ambient.rendering import request
+
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="single_scattering",
+                                interactive=True)
+    monkeypatch.delenv("PYTEST_CURRENT_TEST")  # outside pytest a render stage starts a delayed bar
+    started = []
+    real = request._DelayedBar
+
+    def counted(*a, **k):
+        started.append(a[0])
+        return real(*a, **k)
+
+    monkeypatch.setattr(request, "_DelayedBar", counted)
+    win = pl.ren_win
+    win.SetDesiredUpdateRate(15.0)
+    for _ in range(2):
+        pl.camera.Azimuth(7.0)
+        win.Render()
+        assert vol.moving and started == []
+        points = pv.wrap(vol.actor.GetMapper().GetInputDataObject(0, 0)).points
+        np.testing.assert_allclose(points, vol.result.to_plane().points, rtol=0, atol=1e-6)
+    win.SetDesiredUpdateRate(0.0001)
+    win.Render()
+    assert not vol.moving and started  # the resting frame: the default delayed bars
     pl.close()

@@ -463,8 +463,8 @@ def raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, 
 
 @scalar
 def row_stride(n):
-    """A stride coprime with ``n`` near ``0.618·n``: rows ``(q·stride) mod n`` for q = 0 … n−1 visit
-    every row once, and any run of consecutive q spreads over the whole range."""
+    """A stride coprime with ``n`` near ``0.618·n``: indices ``(q·stride) mod n`` for q = 0 … n−1 visit
+    every index once, and any run of consecutive q spreads over the whole range."""
     s = max(1, int(0.6180339887498949 * n))
     while True:
         a = s
@@ -476,16 +476,33 @@ def row_stride(n):
         s += 1
 
 
+#: The CPU driver's pixel tiles: ``TILE`` × ``TILE`` pixels marched one after the other by one thread.
+#: Neighbouring rays in both image directions read the same cache lines of the volume, so a tile
+#: reads each line from memory about once where a row of pixels read it again for every row: a
+#: 256³ volume (64 MiB, beyond the last-level cache) at a ray step of 4 samples marched 2.3× faster
+#: in 16² tiles than row by row, and a full frame at half a sample 10 % faster (measured 2 threads,
+#: emission–absorption; tiles of 8 and 32 were slower). Which pixel a thread renders does not change
+#: its value.
+TILE = 16
+
+
 @driver
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """CPU driver: rows [row0, row1) of the image, one :func:`raycast_pixel` per pixel; the scene
-    in the records of :mod:`.records`. The rows are visited in a golden-ratio stride order
-    (:func:`row_stride`): ``prange`` hands each thread one contiguous run of iterations, which
-    would otherwise be one band of the image (all of the volume, or none of it)."""
+    in the records of :mod:`.records`. The pixels are visited in :data:`TILE`² tiles (cache
+    locality), the tiles in a golden-ratio stride order (:func:`row_stride`): ``prange`` hands
+    each thread one contiguous run of iterations, which would otherwise be one band of the image
+    (all of the volume, or none of it)."""
     W = out_alpha.shape[1]
-    n = row1 - row0
+    n_rows = (row1 - row0 + TILE - 1) // TILE
+    n_cols = (W + TILE - 1) // TILE
+    n = n_rows * n_cols
     stride = row_stride(n)
     for q in prange(n):
-        j = row0 + (q * stride) % n
-        for i in range(W):
-            raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha)
+        t = (q * stride) % n
+        a = t // n_cols
+        b = t - a * n_cols
+        for j in range(row0 + a * TILE, min(row0 + (a + 1) * TILE, row1)):
+            for i in range(b * TILE, min((b + 1) * TILE, W)):
+                raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
+                              out_alpha)

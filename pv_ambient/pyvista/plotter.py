@@ -105,7 +105,7 @@ class AmbientVolume:
 
     def __init__(self, plotter, renderer, *, model="emission_absorption", display=None, options=None, occlusion=True,
                  window_size=None, interactive_samples=4, refine_interval=100, interactive=False,
-                 interactive_resolution=0.5, interactive_step=8):
+                 interactive_resolution=0.5, interactive_step=16):
         self.plotter = plotter
         self.vtk_renderer = plotter.renderer
         self.renderer = renderer
@@ -256,6 +256,8 @@ class AmbientVolume:
         step = self._moving_step()
         if step is not None:
             opts["step"] = step
+        if self.moving:  # a drag frame takes a fraction of a second: no delayed progress bar (its thread)
+            opts.setdefault("progress_bar", False)
         opts.update(extra)
         return self.renderer.render(camera=cam, window_size=size, model=self.model, **opts)
 
@@ -302,9 +304,8 @@ class AmbientVolume:
             pv.set_new_attribute(actor, "_pv_ambient_plane", True)
             self.actor = actor
             return
-        plane = result.to_plane(**self.display)
         data = pv.wrap(self.actor.GetMapper().GetInputDataObject(0, 0))
-        data.points = plane.points
+        data.points = result.plane_corners()  # the texture is written in place: no new one is built
         write_texture(self.actor.GetTexture(), result.to_uint8(**self.display))
         self.vtk_renderer.ResetCameraClippingRange()
 
@@ -431,7 +432,7 @@ class AmbientVolume:
 
 def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", transfer_function=None, lights=None,
                        scalars=None, display=None, interactive=False, occlusion=True, renderer=None,
-                       interactive_samples=4, refine_interval=100, interactive_resolution=0.5, interactive_step=8,
+                       interactive_samples=4, refine_interval=100, interactive_resolution=0.5, interactive_step=16,
                        **render_options):
     """Render ``grid`` with the plotter's camera and window size and show it in the plotter, in
     front of or behind the plotter's opaque meshes.
@@ -501,9 +502,12 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     interactive_resolution : float, default: 0.5
         Interactive mode: the picture's resolution per axis while the camera moves, as a fraction
         of the window's, in [0.5, 1] (1: always full resolution).
-    interactive_step : int, default: 8
+    interactive_step : int, default: 16
         Interactive mode: the largest ray step while the camera moves, in resting steps (a power
-        of two ≥ 1; 1 keeps the resting step). Ignored by ``path_traced``.
+        of two ≥ 1; 1 keeps the resting step). Ignored by ``path_traced``. A drag frame at a longer
+        step is an approximation (the volume sampled more coarsely, its fine detail aliased): a
+        preview while the camera moves, never the picture it rests on. 16 lets a 256³ volume
+        reach 10 frames per second on two cores (``benchmarks/speed.py --drag``).
     **render_options
         As :meth:`pv_ambient.Renderer.render`. Without ``background`` the volume is composited
         over the plotter's own background (its colour, or its gradient), as VTK's ``add_volume``

@@ -391,8 +391,9 @@ class Renderer(SceneStages):
                 tab = self.table(ph, radius, quality=req.table_quality, progress_bar=inner)
             D, F_diff, a_nodes, lo_log, dlog = tab.lookup_args()
             if req.propagation == "tube":
-                phi = np.concatenate([self.front_depth(lt, grid, radius, ph, req.table_quality) for lt in lights],
-                                     axis=-1)
+                phi = self.stacked("front_stack", lights, grid,
+                                   [self.front_depth(lt, grid, radius, ph, req.table_quality) for lt in lights],
+                                   extra=(float(radius), self._table_key(ph, radius, req.table_quality)))
             else:
                 phi = None  # the τ grids themselves, read at the ball's entry point
         diff = K.NONE12
@@ -411,7 +412,7 @@ class Renderer(SceneStages):
         bake = bool(req.bake_lights and lights and ph.canonical()[2])
         t_prep = time.perf_counter() - t_start
         if not self.geometry.is_empty:
-            tau = np.stack(taus, axis=-1) if taus else K.NONE4
+            tau = self.stacked("tau_stack", lights, grid, taus) if taus else K.NONE4
             lg = grid if grid is not None else NO_GRID
             lrec = K.lights_of(pack_lights(lights), ph, d2min)
             grec = K.LightGrid(lg.lo, lg.inv_step, tau, tau if phi is None else phi, K.NONE4, 0)

@@ -202,6 +202,14 @@ class RenderResult:
         """
         import pyvista as pv
 
+        plane = pv.PolyData(self.plane_corners(), faces=[4, 0, 1, 2, 3])
+        plane.active_texture_coordinates = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
+        pv.set_new_attribute(plane, "ambient_texture", self.to_texture(**display))
+        return plane
+
+    def plane_corners(self) -> np.ndarray:
+        """``(4, 3)`` world corners of :meth:`to_plane` (lower left, lower right, upper right, upper
+        left): the camera's view at the focal plane."""
         cam = self.camera
         fwd, right, up = cam.basis()
         h, w = self.alpha.shape
@@ -212,14 +220,10 @@ class RenderResult:
             half_h = cam.distance * np.tan(np.radians(cam.view_angle) / 2)
             center = np.array(cam.focal_point)
         half_w = half_h * w / h
-        corners = np.array([center - half_w * right - half_h * up,
-                            center + half_w * right - half_h * up,
-                            center + half_w * right + half_h * up,
-                            center - half_w * right + half_h * up])
-        plane = pv.PolyData(corners, faces=[4, 0, 1, 2, 3])
-        plane.active_texture_coordinates = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
-        pv.set_new_attribute(plane, "ambient_texture", self.to_texture(**display))
-        return plane
+        return np.array([center - half_w * right - half_h * up,
+                         center + half_w * right - half_h * up,
+                         center + half_w * right + half_h * up,
+                         center - half_w * right + half_h * up])
 
     def to_texture(self, **display):
         """A ``pyvista.Texture`` of the display image (nearest-texel, no repeat)."""

@@ -128,18 +128,37 @@ class SceneStages:
 
     def active_lights(self, grid, backend="cpu"):
         """Lights that reach the scattering medium: non-zero power, and optical depth below
-        ``TAU_OPAQUE`` at some sample that scatters (σt·albedo > 0)."""
+        ``TAU_OPAQUE`` at some sample that scatters (σt·albedo > 0). Whether a light reaches it is
+        cached with the light (a pass over the light grid: not repeated at every camera move)."""
         out = []
-        nodes = self._scattering_nodes(grid)
-        if not nodes.any():
+        if not self.cache.get(("scatters", grid.key()), lambda: bool(self._scattering_nodes(grid).any())):
             return ()
         for lt in self.lights:
             if max(lt.power) <= 0.0:
                 continue
-            if float(np.min(self.optical_depth(lt, grid, backend)[nodes])) > TAU_OPAQUE:
+
+            def reaches(lt=lt):
+                tau = self.optical_depth(lt, grid, backend)
+                return float(np.min(tau[self._scattering_nodes(grid)])) <= TAU_OPAQUE
+
+            if not self.cache.get(("reaches", lt, grid.key()), reaches):
                 continue
             out.append(lt)
         return tuple(out)
+
+    def stacked(self, kind, lights, grid, parts, extra=()):
+        """``parts`` (one light-grid array per light, (m0, m1, m2) or (m0, m1, m2, c)) side by side
+        along a last axis, as the kernel's records take them (a view of the one array for a single
+        light), made once per light set, grid and ``extra`` and cached under stage ``kind`` (a
+        relight replaces it): a camera move copies no light volume, and the CUDA backend finds the
+        same array, already on the GPU."""
+        key = (kind, tuple(lights), grid.key()) + tuple(extra)
+        if key not in self.cache:
+            for old in [k for k in self.cache.keys(kind) if k[2:] == key[2:]]:
+                del self.cache[old]
+            parts = [a if a.ndim == 4 else a[..., None] for a in parts]
+            self.cache[key] = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
+        return self.cache[key]
 
     def ball_grid(self, radius):
         """σ̄ (mean extinction over the ball of world radius ``radius``) and the ball's mean albedo
