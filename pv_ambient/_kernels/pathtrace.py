@@ -76,8 +76,9 @@ from .tracking import delta_track, draw, ratio_track, sigma_lookup
 SHADOW_RR_BELOW = 0.05
 #: Largest survival probability of the path's Russian roulette (module docstring, item 6).
 RR_MAX_SURVIVAL = 0.999
-#: Floor of the equiangular density's distance from the ray (world units) when the light clamp is 0.
-EQ_D_MIN = 1e-20
+#: Floor of the equiangular density's distance from the ray, relative to the equiangular radius
+#: (when the light clamp is smaller; scale-free, as the supported spacings span 1e-100 to 1e100).
+EQ_D_MIN = 1e-12
 #: Share of scattered directions sampled about a point light within the equiangular radius.
 CONE_SHARE = 0.3
 
@@ -131,7 +132,7 @@ def equiangular_span(l, lights, ox, oy, oz, dx, dy, dz, ta, tb, radius):
     within ``radius`` of the light, ``[a, b]``, and the equiangular density's ``(delta, D, tau_a,
     span)`` there (:func:`.equiangular.equiangular_setup`); ``span`` 0 where there is no such part."""
     lvec = lights.vec
-    d_min = max(math.sqrt(lights.d2min), EQ_D_MIN)
+    d_min = max(math.sqrt(lights.d2min), EQ_D_MIN * radius)
     delta, D, tau_a, span = equiangular_setup(ox, oy, oz, dx, dy, dz, lvec[l, 0], lvec[l, 1], lvec[l, 2],
                                               ta, tb, d_min)
     if D >= radius:
