@@ -811,3 +811,22 @@ def test_directions_about_the_light_reproduce_the_phase_function():
     exact = np.trapezoid(np.trapezoid(hg(g, v[..., 2]) * np.sin(tt), pp[0], axis=1), tt[:, 0])
     assert abs(z(w * cap, exact)) < 4, (np.mean(w * cap), exact)
     assert cap.mean() > 1.8 * exact
+
+
+@pytest.mark.parametrize("s", [1e-20, 1e-9])
+def test_equiangular_sampling_is_scale_free(s):
+    # Space scaled by s (σt by 1/s, intensities by s², the clamp by s): every decision of the
+    # equiangular and direction sampling is dimensionless, so with the same seed the same random
+    # numbers make the same image up to float32 rounding of σt (as tests/test_extremes.py checks for
+    # the other models). A fixed floor of 1e-20 world units once switched the sampling off at 1e-20.
+    def image(s):
+        light = np.array([0.1, -0.05, 0.2]) * s
+        r = renderer(np.full((9, 9, 9), 2.0 / s), (0.25 * s,) * 3, (-s, -s, -s), albedo=0.8,
+                     lights=[pa.PointLight(light, s * s)])
+        cam = Camera((0.3 * s, -4.0 * s, 0.25 * s), (0.0, 0.0, 0.0), (0, 0, 1), view_angle=12)
+        res = r.path_trace(cam, (5, 5), samples_per_pixel=16, seed=3, phase=0.3, max_depth=3, light_clamp=1e-3 * s)
+        return res.radiance, res.metadata["equiangular_radius"]
+
+    (a, ra), (b, rb) = image(1.0), image(s)
+    assert np.isclose(rb / s, ra, rtol=1e-12)
+    assert a.max() > 0 and np.max(np.abs(a - b)) <= 1e-6 * a.max(), np.max(np.abs(a - b)) / a.max()
