@@ -228,6 +228,20 @@ def equiangular_nee(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz, ta, tb, view
 
 
 @scalar
+def near_light(l, lights, wx, wy, wz, radius):
+    """Whether light ``l`` is a point light within ``radius`` of world point w (and not on it), and
+    the vector from w to it with its squared length: ``(near, vx, vy, vz, d2)``."""
+    if lights.kind[l] != 0:
+        return False, 0.0, 0.0, 0.0, 0.0
+    lvec = lights.vec
+    vx = lvec[l, 0] - wx
+    vy = lvec[l, 1] - wy
+    vz = lvec[l, 2] - wz
+    d2 = vx * vx + vy * vy + vz * vz
+    return 0.0 < d2 < radius * radius, vx, vy, vz, d2
+
+
+@scalar
 def scatter_direction(wx, wy, wz, dx, dy, dz, lights, paths, k, dim):
     """The direction after scattering at world point w of a path travelling along d, and its weight
     ``p(θ)/pdf``: from the phase function (weight 1) or, with ``paths.equiangular`` and point lights
@@ -235,17 +249,12 @@ def scatter_direction(wx, wy, wz, dx, dy, dz, lights, paths, k, dim):
     about a near light chosen uniformly, its angle θ_l to the light uniform on [0, π]
     (solid-angle pdf ``1/(2π² sin θ_l)``), else the phase function (module docstring).
     Returns ``(dx, dy, dz, weight, dim)``."""
-    lkind, lvec, radius = lights.kind, lights.vec, paths.eq_radius
+    nlights, radius = lights.kind.shape[0], paths.eq_radius
     near = 0
     if paths.equiangular:
-        for l in range(lkind.shape[0]):
-            if lkind[l] == 0:
-                vx = lvec[l, 0] - wx
-                vy = lvec[l, 1] - wy
-                vz = lvec[l, 2] - wz
-                d2 = vx * vx + vy * vy + vz * vz
-                if 0.0 < d2 < radius * radius:
-                    near += 1
+        for l in range(nlights):
+            if near_light(l, lights, wx, wy, wz, radius)[0]:
+                near += 1
     if near == 0:
         u1 = draw(k, dim)
         u2 = draw(k, dim + 1)
@@ -257,34 +266,26 @@ def scatter_direction(wx, wy, wz, dx, dy, dz, lights, paths, k, dim):
     dim += 3
     if u0 < CONE_SHARE:
         pick = min(int(u0 / CONE_SHARE * near), near - 1)
-        for l in range(lkind.shape[0]):
-            if lkind[l] == 0:
-                vx = lvec[l, 0] - wx
-                vy = lvec[l, 1] - wy
-                vz = lvec[l, 2] - wz
-                d2 = vx * vx + vy * vy + vz * vz
-                if 0.0 < d2 < radius * radius:
-                    if pick == 0:
-                        inv = 1.0 / math.sqrt(d2)
-                        nx, ny, nz = direction_about(math.cos(math.pi * u1), u2, vx * inv, vy * inv, vz * inv)
-                        break
-                    pick -= 1
+        for l in range(nlights):
+            ok, vx, vy, vz, d2 = near_light(l, lights, wx, wy, wz, radius)
+            if ok:
+                if pick == 0:
+                    inv = 1.0 / math.sqrt(d2)
+                    nx, ny, nz = direction_about(math.cos(math.pi * u1), u2, vx * inv, vy * inv, vz * inv)
+                    break
+                pick -= 1
     else:
         nx, ny, nz, _ = phase_sample(lights.pkind, lights.g, u1, u2, dx, dy, dz)
     # the mixture's pdf at the chosen direction
     cone = 0.0
-    for l in range(lkind.shape[0]):
-        if lkind[l] == 0:
-            vx = lvec[l, 0] - wx
-            vy = lvec[l, 1] - wy
-            vz = lvec[l, 2] - wz
-            d2 = vx * vx + vy * vy + vz * vz
-            if 0.0 < d2 < radius * radius:
-                c = (nx * vx + ny * vy + nz * vz) / math.sqrt(d2)
-                sin_t = math.sqrt(max(0.0, (1.0 - c) * (1.0 + c)))
-                if not sin_t > 0.0:
-                    return nx, ny, nz, 0.0, dim
-                cone += 1.0 / (2.0 * math.pi * math.pi * sin_t)
+    for l in range(nlights):
+        ok, vx, vy, vz, d2 = near_light(l, lights, wx, wy, wz, radius)
+        if ok:
+            c = (nx * vx + ny * vy + nz * vz) / math.sqrt(d2)
+            sin_t = math.sqrt(max(0.0, (1.0 - c) * (1.0 + c)))
+            if not sin_t > 0.0:
+                return nx, ny, nz, 0.0, dim
+            cone += 1.0 / (2.0 * math.pi * math.pi * sin_t)
     p = phase_eval(lights.pkind, lights.g, nx * dx + ny * dy + nz * dz)
     return nx, ny, nz, p / ((1.0 - CONE_SHARE) * p + CONE_SHARE * cone / near), dim
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..._kernels import preint as _k
 from ...inputs.phase import HenyeyGreenstein, Isotropic, as_phase
-from ...inputs.validation import check_choice, check_int, check_real
+from ...inputs.validation import check_bool, check_choice, check_int, check_real
 from .estimator import BEAM_MIX, MIX_AXIS, MIX_UNIFORM, N_CHUNKS
 from .table import (
     ALBEDO_NODES,
@@ -255,10 +255,8 @@ def get_table(phase=None, albedo_range=(0.0, 1.0), *, quality="balanced", cache=
     ph = as_phase(phase)
     a_min, a_max = _check_albedo_range(albedo_range)
     check_choice(quality, "quality", tuple(QUALITY_PRESETS))
-    if not isinstance(cache, (bool, np.bool_)):
-        raise TypeError(f"cache must be True or False, got {cache!r}")
-    if not isinstance(progress_bar, (bool, np.bool_)):
-        raise TypeError(f"progress_bar must be True or False, got {progress_bar!r}")
+    check_bool(cache, "cache")
+    check_bool(progress_bar, "progress_bar")
     seed = check_int(seed, "seed", lo=0)
     kind, g, iso = ph.canonical()
     params = dict(QUALITY_PRESETS[quality])
