@@ -39,12 +39,12 @@ TIE = 1e-9
 def sample_sigma_grid(mode, field, table, lut_lo, lut_inv, lo, step, out):
     """σt at every light-grid node (node k ↦ data index lo + k·step)."""
     m0, m1, m2 = out.shape
-    for k in prange(m2):
-        z = lo[2] + k * step[2]
+    for i in prange(m0):  # the last index innermost: C-ordered arrays are read and written in order
+        x = lo[0] + i * step[0]
         for j in range(m1):
             y = lo[1] + j * step[1]
-            for i in range(m0):
-                out[i, j, k] = sigma_at(mode, field, table, lut_lo, lut_inv, lo[0] + i * step[0], y, z)
+            for k in range(m2):
+                out[i, j, k] = sigma_at(mode, field, table, lut_lo, lut_inv, x, y, lo[2] + k * step[2])
 
 
 @scalar
@@ -274,12 +274,12 @@ def tube_density(ball, lo, step, radius, F_diff, a_nodes, tau_lo_log, tau_dlog, 
     """
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
     inv2r = 0.5 / radius
-    for k in prange(m2):
-        z = lo[2] + k * step[2]
+    for i in prange(m0):  # the last index innermost (C order)
+        x = lo[0] + i * step[0]
         for j in range(m1):
             y = lo[1] + j * step[1]
-            for i in range(m0):
-                x = lo[0] + i * step[0]
+            for k in range(m2):
+                z = lo[2] + k * step[2]
                 tau = radius * trilinear_c(ball, x, y, z, 0)
                 for c in range(3):
                     f = f_lookup(F_diff, a_nodes, tau_lo_log, tau_dlog, tau, trilinear_c(ball, x, y, z, 1 + c))

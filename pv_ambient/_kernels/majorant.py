@@ -34,9 +34,9 @@ def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
             for a in range(mx):
                 smin = math.inf
                 smax = -math.inf
-                for k in range(c * block, min((c + 1) * block, nz - 1) + 1):
+                for i in range(a * block, min((a + 1) * block, nx - 1) + 1):  # C order: k innermost
                     for j in range(b * block, min((b + 1) * block, ny - 1) + 1):
-                        for i in range(a * block, min((a + 1) * block, nx - 1) + 1):
+                        for k in range(c * block, min((c + 1) * block, nz - 1) + 1):
                             v = field[i, j, k]
                             if v < smin:
                                 smin = v

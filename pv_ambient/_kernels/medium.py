@@ -50,9 +50,9 @@ def classify_columns(field, table, lut_lo, lut_inv, col, out):
     nx, ny, nz = field.shape
     n = table.shape[0]
     ncomp = out.shape[3]
-    for k in prange(nz):
+    for i in prange(nx):  # the last index innermost (C order)
         for j in range(ny):
-            for i in range(nx):
+            for k in range(nz):
                 x = (field[i, j, k] - lut_lo) * lut_inv
                 x = min(max(x, 0.0), n - 1.0)
                 k0 = min(int(x), n - 2)
@@ -68,9 +68,9 @@ def scattering_nodes(mode, field, table, lut_lo, lut_inv, aux, node0, node1, nod
     node per axis. Writes only ``True`` (concurrent writes of the same value are benign)."""
     nx, ny, nz = field.shape
     n = table.shape[0]
-    for k in prange(nz):
+    for i in prange(nx):  # the last index innermost (C order)
         for j in range(ny):
-            for i in range(nx):
+            for k in range(nz):
                 if mode == MODE_GRID:
                     sig = field[i, j, k]
                     alb = max(aux[i, j, k, 0], max(aux[i, j, k, 1], aux[i, j, k, 2]))

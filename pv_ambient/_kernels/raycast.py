@@ -234,9 +234,9 @@ def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, w
     With ``with_diff`` the nodes are the data samples and diffusion's ``max(φ_c, 0)/4π`` (``diff``:
     (nx, ny, nz, 4) grey or 12 per channel, :func:`diffusion_light`'s field) joins the last slot."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
-    for k in prange(m2):
+    for i in prange(m0):  # the last index innermost: ``out`` and the light grid are C-ordered
         for j in range(m1):
-            for i in range(m0):
+            for k in range(m2):
                 bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, i, j, k, out)
 
 
