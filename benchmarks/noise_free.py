@@ -41,6 +41,9 @@ Columns of a scene's table:
     a camera move: the median time of 3 frames from cameras orbited by 1°, 2° and 3° about the
     focal point (caches warm), and its ratio to ``single_scattering``'s on the same scene.
 
+A warning a model's frames raised (e.g. a diffusion solve that did not converge) is printed under
+its row.
+
 The summary table gives, per model, the worst block error over the six old scenes (``trade`` and
 ``floor``) and over the three new ones, the range of biases over each, and the median camera-move
 ratio to single scattering over the scenes run.
@@ -189,17 +192,19 @@ def run_model(grid, tf, lights, g, cam, model, opts, share_from, size=SIZE):
     """Score frame at ``cam`` (first frame, caches cold) and the median time of the orbit frames."""
     r = pa.Renderer(grid, transfer_function=tf, lights=lights)
     r.cache.share(share_from.cache)  # the preintegrated table slices (the disk cache's role)
-    t = time.perf_counter()
-    res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False, **opts)
-    first = time.perf_counter() - t
-    times = []
-    for deg in MOVES_DEG:
-        c = orbit(cam, deg)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         t = time.perf_counter()
-        r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
-        times.append(time.perf_counter() - t)
+        res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False, **opts)
+        first = time.perf_counter() - t
+        times = []
+        for deg in MOVES_DEG:
+            c = orbit(cam, deg)
+            t = time.perf_counter()
+            r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
+            times.append(time.perf_counter() - t)
     share_from.cache.share(r.cache)
-    return res, first, float(np.median(times))
+    return res, first, float(np.median(times)), list(dict.fromkeys(str(w.message) for w in caught))
 
 
 def warm_up(name):
@@ -270,7 +275,7 @@ def main(argv=None):
         log(f"  {'model':26s} {'block':>7} {'bias':>7} {'first s':>8} {'move ms':>8} {'move/SS':>8}")
         t_ss = None
         for label, model, opts in MODELS:
-            res, first, move = run_model(grid, tf, lights, g, cam, model, opts, r, size)
+            res, first, move, warned = run_model(grid, tf, lights, g, cam, model, opts, r, size)
             img = res.radiance
             finite = bool(np.all(np.isfinite(img)))
             block = metrics.block_relative_rmse(img, ref, mask) if finite else float("nan")
@@ -282,6 +287,8 @@ def main(argv=None):
                              first=first, move=move, ratio=move / t_ss))
             log(f"  {shown_label:26s} {block:>7.3f} {bias:>+7.3f} {first:>8.2f} {move * 1e3:>8.1f} {move / t_ss:>8.2f}"
                 + ("" if finite else "   (non-finite pixels)"))
+            for w in warned:  # e.g. a diffusion solve that did not converge: part of the result
+                log(f"      warning: {w}")
     if args.refs_only:
         return
     old = [n for n in names if n in scene_registry.OLD]
