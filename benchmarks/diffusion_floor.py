@@ -6,23 +6,16 @@ For each: a path-traced reference (4096 spp or 1 % standard error, 64²), then p
 flux-limited diffusion with the default floor (1/mean chord), the earlier 0.01/diagonal, 1/diagonal
 and 10/diagonal, and single / ambient scattering for scale; 4×4-block relative RMSE and bias.
 
+The scenes are benchmarks/scenes.py's "floor" group.
+
 Usage: ``python benchmarks/diffusion_floor.py [smoke_plume,marschner_lobb,cloud_sun]``
 """
 import sys, time, numpy as np
 import pv_ambient as pa, pv_ambient.stages.diffusion as dm
 from pv_ambient.stages.diffusion import solve as dsolve
-from pv_ambient import datasets, metrics
+from pv_ambient import metrics
 size=(64,64)
-def scene(name):
-    if name=="smoke_plume":
-        g=datasets.smoke_plume(n=64); st=datasets.suggested_style("smoke_plume")
-        return g, pa.TransferFunction(**st, albedo=0.9), [pa.PointLight((1.2,-0.8,1.0),intensity=5.0)], 0.3, pa.Camera((0,-3.6,0.5),(0,0,0),(0,0,1),view_angle=30)
-    if name=="marschner_lobb":
-        g=datasets.marschner_lobb(n=64); st=datasets.suggested_style("marschner_lobb")
-        return g, pa.TransferFunction(**st, albedo=0.9), [pa.PointLight((0.0,0.0,0.0),intensity=2.0)], 0.0, pa.Camera((0,-3.6,1.0),(0,0,0),(0,0,1),view_angle=30)
-    if name=="cloud_sun":
-        g=datasets.cloud(n=64); st=datasets.suggested_style("cloud")
-        return g, pa.TransferFunction(**{**st,"density_scale":8.0}, albedo=0.95), [pa.DirectionalLight((0.3,0.4,-1.0),irradiance=2.0)], 0.6, pa.Camera((0,-3.6,0.8),(0,0,0),(0,0,1),view_angle=30)
+from scenes import scene  # benchmarks/scenes.py (the script's directory is on sys.path); n = 64
 names = sys.argv[1] if len(sys.argv) > 1 else "smoke_plume,marschner_lobb,cloud_sun"
 for name in names.split(","):
     g, tf, lights, ph, cam = scene(name)

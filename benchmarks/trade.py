@@ -37,30 +37,14 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
-from pv_ambient import datasets, metrics  # noqa: E402
+from pv_ambient import metrics  # noqa: E402
+
+import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
 
 
 def scenes(n):
-    """(name, grid, transfer function, lights, phase, camera)."""
-    out = []
-    g = datasets.supernova(n=n)
-    st = datasets.suggested_style("supernova")
-    # the light sits in the shell's faint interior, off the dense core (a light inside the core
-    # makes the reference's variance explode: next-event estimates from vertices next to it)
-    out.append(("supernova", g, pa.TransferFunction(**st, albedo=0.9), [pa.PointLight((0.0, 0.0, 0.35), intensity=3.0)],
-                0.0, pa.Camera((0.0, -3.6, 0.6), (0, 0, 0), (0, 0, 1), view_angle=30)))
-    g = datasets.cloud(n=n)
-    st = datasets.suggested_style("cloud")
-    out.append(("cloud", g, pa.TransferFunction(**{**st, "density_scale": 8.0}, albedo=0.95),
-                [pa.PointLight((0.4, 0.6, 2.2), intensity=6.0)], 0.6,
-                pa.Camera((0.0, -3.6, 0.8), (0, 0, 0), (0, 0, 1), view_angle=30)))
-    g = datasets.ct_phantom(n=n)
-    st = datasets.suggested_style("ct_phantom")
-    out.append(("ct_phantom", g, pa.TransferFunction(**st, albedo=0.8),
-                [pa.PointLight((1.6, -1.2, 0.8), intensity=(5.0, 2.0, 1.0)),
-                 pa.PointLight((-1.6, -1.2, -0.4), intensity=(1.0, 2.0, 5.0))], 0.3,
-                pa.Camera((0.0, -3.6, 0.4), (0, 0, 0), (0, 0, 1), view_angle=30)))
-    return out
+    """(name, grid, transfer function, lights, phase, camera) of the trade's scenes (benchmarks/scenes.py)."""
+    return [(name, *scene_registry.scene(name, n)) for name in scene_registry.GROUPS["trade"]]
 
 
 def vtk_time(grid, r, cam, size, step, repeats):

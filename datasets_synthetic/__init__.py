@@ -22,6 +22,10 @@ name                default  values        meaning
                                            skull 1, brain ≈ 0.2 (textured), ventricles 0, lesions
                                            0.3, 4 dense inclusions 0.85 (HU ≈ 2000·v − 1000)
 ``marschner_lobb``  41³      [0, 1]        Marschner–Lobb signal, f_M = 6, α = 0.25 (closed form)
+``haze``            64³      [0, 1]        density of a smooth fBm haze filling the whole cube,
+                                           denser near the floor, 0 at the domain faces
+``blob``            64³      [0, 1]        density of a compact dense object: a lumpy ellipsoid
+                                           (semi-axes ≈ 0.6, 0.55, 0.5), ≈ 0.9 inside, 0 outside
 ==================  =======  ============  ===========================================================
 
 Each generator returns a :class:`SyntheticVolume` carrying suggested rendering defaults
@@ -32,7 +36,7 @@ Noise is seeded gradient noise / fBm on a hashed lattice (:mod:`datasets_synthet
 
 >>> import datasets_synthetic as ds
 >>> ds.names()
-['supernova', 'cloud', 'smoke_plume', 'ct_phantom', 'marschner_lobb']
+['supernova', 'cloud', 'smoke_plume', 'ct_phantom', 'marschner_lobb', 'haze', 'blob']
 >>> vol = ds.load("cloud", n=32, seed=1)
 >>> vol.values.shape, vol.values.dtype.name
 ((32, 32, 32), 'float32')
@@ -44,8 +48,10 @@ from .noise import fbm, fbm_grid, gradient_noise
 from .volumes import (
     STYLES,
     SyntheticVolume,
+    blob,
     cloud,
     ct_phantom,
+    haze,
     marschner_lobb,
     marschner_lobb_formula,
     smoke_plume,
@@ -58,6 +64,8 @@ REGISTRY = {
     "smoke_plume": smoke_plume,
     "ct_phantom": ct_phantom,
     "marschner_lobb": marschner_lobb,
+    "haze": haze,
+    "blob": blob,
 }
 # Volumes without noise: they take no seed.
 _UNSEEDED = frozenset({"marschner_lobb"})
@@ -89,7 +97,7 @@ def style(name: str) -> dict:
 
 
 __all__ = [
-    "REGISTRY", "STYLES", "SyntheticVolume", "cloud", "ct_phantom", "fbm", "fbm_grid",
-    "gradient_noise", "load", "marschner_lobb", "marschner_lobb_formula", "names",
+    "REGISTRY", "STYLES", "SyntheticVolume", "blob", "cloud", "ct_phantom", "fbm", "fbm_grid",
+    "gradient_noise", "haze", "load", "marschner_lobb", "marschner_lobb_formula", "names",
     "smoke_plume", "style", "supernova",
 ]

@@ -17,13 +17,16 @@ from .noise import fbm, fbm_grid
 # Suggested rendering defaults per volume. ``density_scale`` is σ_t (1/world-unit) at opacity 1,
 # set so the optical depth along an axis-parallel ray through the object is of order one to a few
 # units. Measured at n = 64 (median over axis rays with τ > 0.05, per axis): supernova 2.3–2.6,
-# cloud 1.2–1.7, smoke_plume 0.4–0.6, ct_phantom 2.1–2.8, marschner_lobb 3.0–5.7.
+# cloud 1.2–1.7, smoke_plume 0.4–0.6, ct_phantom 2.1–2.8, marschner_lobb 3.0–5.7; haze (fills the
+# box, a ray crosses all of it) and blob are set the same way, to about 1 and 3.
 STYLES = {
     "supernova": dict(cmap="inferno", clim=(0.0, 1.0), opacity="linear", density_scale=12.0),
     "cloud": dict(cmap="bone", clim=(0.0, 1.0), opacity="linear", density_scale=3.0),
     "smoke_plume": dict(cmap="gray", clim=(0.0, 1.0), opacity="linear", density_scale=6.0),
     "ct_phantom": dict(cmap="bone", clim=(0.0, 1.0), opacity="linear", density_scale=8.0),
     "marschner_lobb": dict(cmap="viridis", clim=(0.0, 1.0), opacity="sigmoid", density_scale=3.0),
+    "haze": dict(cmap="gray", clim=(0.0, 1.0), opacity="linear", density_scale=1.0),
+    "blob": dict(cmap="bone", clim=(0.0, 1.0), opacity="linear", density_scale=3.0),
 }
 
 
@@ -249,3 +252,37 @@ def marschner_lobb(n=41) -> SyntheticVolume:
                    "(1 − sin(πz/2) + α(1 + cos(2π f_M cos(π r/2)))) / (2(1 + α)), r = √(x² + y²); "
                    "a reconstruction-filter test, usually shown as the 0.5 isosurface. "
                    "Values in [0, 1].", scalars_name="signal")
+
+
+def haze(n=64, seed: int = 0) -> SyntheticVolume:
+    """Smooth haze filling the whole box, denser near the floor; density in [0.05, 1] inside."""
+    seed = _seed(seed)
+    shape, origin, spacing, axes, (X, Y, Z) = _grid(n)
+    # Low-frequency fBm around a level that falls with height (mean ≈ 0.5), never quite clear.
+    f = fbm_grid(*axes, seed=seed, name="haze", frequency=1.2, octaves=4)
+    values = np.clip(0.5 - 0.2 * Z + 1.6 * f, 0.05, 1.0)
+    # Soft window: 1 inside, falling to 0 over the outer 0.15 of each face.
+    for c in (X, Y, Z):
+        values = values * _smoothstep(0.0, 0.15, 1.0 - np.abs(c))
+    return _volume("haze", values, origin, spacing,
+                   "Haze: a smooth, low-frequency fBm density filling the whole cube (level "
+                   "0.5 − 0.2 z plus fBm, clipped to [0.05, 1]), falling to exactly 0 over the "
+                   "outer 0.15 of each face. Values: density in [0, 1].")
+
+
+def blob(n=64, seed: int = 0) -> SyntheticVolume:
+    """A compact, nearly uniform dense object with a lumpy surface; density in [0, 1]."""
+    seed = _seed(seed)
+    shape, origin, spacing, axes, (X, Y, Z) = _grid(n)
+    # An ellipsoid (semi-axes 0.6, 0.55, 0.5) whose surface is perturbed by low-frequency fBm,
+    # with a sharp but smooth edge (0.08 in the body coordinate) and a ±10 % interior texture.
+    body = 1.0 - np.sqrt((X / 0.6) ** 2 + (Y / 0.55) ** 2 + (Z / 0.5) ** 2)
+    body = body + 0.3 * fbm_grid(*axes, seed=seed, name="blob.surface", frequency=1.5, octaves=3)
+    texture = 0.9 + 0.5 * fbm_grid(*axes, seed=seed, name="blob.texture", frequency=4.0, octaves=3)
+    values = _smoothstep(0.0, 0.08, body) * np.clip(texture, 0.0, 1.0)
+    for c in (X, Y, Z):
+        values = values * _smoothstep(0.0, 0.1, 1.0 - np.abs(c))
+    return _volume("blob", values, origin, spacing,
+                   "Blob: a compact, nearly uniform dense object — an ellipsoid (semi-axes 0.6, "
+                   "0.55, 0.5) with an fBm-perturbed surface and a smooth edge, density ≈ 0.9 "
+                   "± 0.1 inside, exactly 0 outside. Values: density in [0, 1].")

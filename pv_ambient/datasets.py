@@ -14,6 +14,8 @@ name                default  what it is
 ``smoke_plume``     64³      plume rising along +z (``density``)
 ``ct_phantom``      64³      3D Shepp–Logan-like head phantom (``attenuation``)
 ``marschner_lobb``  41³      Marschner–Lobb test signal (``signal``)
+``haze``            64³      smooth fBm haze filling the cube, zero at the faces (``density``)
+``blob``            64³      compact dense object, a lumpy ellipsoid (``density``)
 ==================  =======  =================================================================
 
 Examples
@@ -88,5 +90,15 @@ def marschner_lobb(n=41):
     return load("marschner_lobb", n=n)
 
 
-__all__ = ["NAMES", "cloud", "ct_phantom", "load", "marschner_lobb", "smoke_plume", "suggested_style",
+def haze(n=64, seed=0):
+    """Smooth haze filling the cube, denser near the floor, 0 at the faces (``"density"`` in [0, 1])."""
+    return load("haze", n=n, seed=seed)
+
+
+def blob(n=64, seed=0):
+    """Compact, nearly uniform dense object with a lumpy surface (``"density"`` in [0, 1])."""
+    return load("blob", n=n, seed=seed)
+
+
+__all__ = ["NAMES", "blob", "cloud", "ct_phantom", "haze", "load", "marschner_lobb", "smoke_plume", "suggested_style",
            "supernova", "to_image_data"]

@@ -72,3 +72,17 @@ def test_bad_names_and_sizes():
         datasets.cloud(n=2.5)
     with pytest.raises(ValueError, match="seed must be a non-negative int"):
         datasets.cloud(n=8, seed=-1)
+
+
+def test_haze_fills_the_box_and_blob_is_compact():
+    """The two volumes of the out-of-sample scenes (benchmarks/scenes.py): the haze is medium
+    everywhere inside the faces' window, the blob is dense inside and empty away from it."""
+    h = ds.haze(n=33, seed=0).values
+    assert np.all(h[5:-5, 5:-5, 5:-5] >= 0.05 - 1e-6)  # never clear inside the window (0.15 = 2.5 spacings)
+    assert np.all(h[0] == 0) and np.all(h[:, :, -1] == 0)
+    assert 0.3 < h[5:-5, 5:-5, 5:-5].mean() < 0.7
+    b = ds.blob(n=33, seed=0).values
+    x = np.linspace(-1, 1, 33)
+    r = np.sqrt(x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2)
+    assert np.all(b[r > 0.8] == 0)  # compact
+    assert np.median(b[r < 0.35]) > 0.8  # dense, nearly uniform inside

@@ -1,10 +1,10 @@
 """
 .. _synthetic_datasets_example:
 
-The five synthetic volumes
-==========================
+The seven synthetic volumes
+===========================
 
-:mod:`pv_ambient.datasets` generates five volumes on the cube [−1, 1]³ with numpy alone: no
+:mod:`pv_ambient.datasets` generates seven volumes on the cube [−1, 1]³ with numpy alone: no
 download, deterministic for a given ``seed``, and resolution independent (a coarse grid's values
 equal a fine grid's at shared points). Each comes with a suggested transfer-function style.
 Here each is rendered with the emission–absorption model (what VTK's ``add_volume`` shows) from
