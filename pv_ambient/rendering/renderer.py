@@ -27,6 +27,7 @@ from ..stages.reference import RR_DEPTH
 from .cache import SceneCache
 from .presets import (
     ALL_MODELS,
+    AUTO_SWEEP_ORDERS,
     BUDGET_MAX_SPP,
     DEFAULT_PROPAGATION,
     DEFAULT_SPP,
@@ -178,7 +179,8 @@ class Renderer(SceneStages):
                 extra["samples_per_pixel"] = BUDGET_MAX_SPP
             return "path_traced", extra
         if model == "diffusion" and request.quality == "accurate":
-            return model, {"flux_limited": request.options.get("flux_limited", True)}
+            return model, {"flux_limited": request.options.get("flux_limited", True),
+                           "sweep_orders": request.options.get("sweep_orders", AUTO_SWEEP_ORDERS)}
         return model, {}
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
@@ -337,6 +339,8 @@ class Renderer(SceneStages):
         denoise = model_options.get("denoise", False)
         if denoise not in (True, False):
             raise TypeError(f"denoise must be True or False, got {denoise!r}")
+        if "sweep_orders" in model_options:
+            check_int(model_options["sweep_orders"], "sweep_orders", lo=0)
         if model == "path_traced" and ray_end is not None:
             raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
         return RenderRequest(
@@ -400,7 +404,8 @@ class Renderer(SceneStages):
         if model == "diffusion" and lights:
             with stage_bar(progress_bar, "diffusion solve") as bar:
                 diff = self.diffusion(lights, grid, ph, flux_limited=model_options.get("flux_limited", False),
-                                      progress_bar=inner, backend=backend)
+                                      progress_bar=inner, backend=backend,
+                                      sweep_orders=model_options.get("sweep_orders", 0))
                 info = getattr(self, "_diffusion_info", None) or {}
                 if "residual" in info:
                     bar.set_postfix_str(f"{info['iterations']} iterations, residual {info['residual']:.2g}")
@@ -423,7 +428,9 @@ class Renderer(SceneStages):
                 # diffusion's φ/4π joins the bake where the light-grid nodes are the data samples
                 # (then exactly: trilinear interpolation is linear); the march is single scattering's
                 fold = model == "diffusion" and grid.on_samples(self.optics.field.shape)
-                dkey = (bool(model_options.get("flux_limited", False)), fold) if model == "diffusion" else None
+                dkey = ((bool(model_options.get("flux_limited", False)), fold)
+                        + ((int(model_options["sweep_orders"]),) if model_options.get("sweep_orders", 0) else ())
+                        if model == "diffusion" else None)
                 with stage_bar(progress_bar, "baked in-scattering") as bar:
                     inc = self.incident(MODEL_IDS[model], lights, grid, (lrec, grec, arec),
                                         (model, d2min, radius, tkey, req.propagation, ph.canonical(), dkey),
@@ -453,6 +460,7 @@ class Renderer(SceneStages):
                 "propagation": req.propagation if model == "ambient_scattering" else None,
                 "baked_lights": bake,
                 "flux_limited": bool(model_options.get("flux_limited", False)) if model == "diffusion" else None,
+                "sweep_orders": int(model_options.get("sweep_orders", 0)) if model == "diffusion" else None,
                 "diffusion_solver": getattr(self, "_diffusion_info", None) if model == "diffusion" else None,
                 "light_grid": None if grid is None else grid.shape,
                 "time_prepare": t_prep, "time_render": time.perf_counter() - t_start - t_prep,

@@ -35,7 +35,7 @@ This package imports numpy, scipy and the kernels only (no pyvista or vtk).
 from .medium import DiffusionMedium
 from .solution import DiffusionSolution, camera_source
 from .solve import mean_chord, solve_diffusion, solve_for_light, solve_in_medium
-from .sources import direct_irradiance, first_collision_source, source_in_medium
+from .sources import direct_irradiance, first_collision_source, hat_medium, hat_source, source_in_medium
 
 __all__ = [
     "DiffusionMedium",
@@ -43,6 +43,8 @@ __all__ = [
     "camera_source",
     "direct_irradiance",
     "first_collision_source",
+    "hat_medium",
+    "hat_source",
     "mean_chord",
     "solve_diffusion",
     "solve_for_light",
