@@ -24,7 +24,10 @@ The package
 - :mod:`.solve`: :func:`solve_diffusion` (vacuum floor, flux limiter with Anderson mixing,
   channel reuse), :func:`mean_chord` and the per-light entry point :func:`solve_for_light`,
   which takes arrays and small records — the caller computes the light's optical depth;
-- :mod:`.solution`: :class:`DiffusionSolution` and :func:`camera_source`.
+- :mod:`.solution`: :class:`DiffusionSolution` and :func:`camera_source`;
+- :mod:`.ordinates`: the transport sweeps that carry the first scattering orders
+  (``solve_for_light(sweep_orders=K)``, docs/diffusion.rst §5), with the hat-projected medium and
+  first-collision source of :mod:`.sources` (:func:`hat_medium`, :func:`hat_source`).
 
 Measured figures (errors against path tracing, iteration counts, times):
 ``benchmarks/results/diffusion_notes.md``.
