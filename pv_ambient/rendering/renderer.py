@@ -618,7 +618,8 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
         ``"emission_absorption"`` (VTK's ``add_volume``: no lights), ``"ambient_occlusion"``
         (options ``radius`` = 4 voxels, ``ambient_radiance`` = 1.0), ``"single_scattering"``,
         ``"ambient_scattering"`` (``radius`` = 8 voxels, ``propagation`` = "beer_lambert",
-        ``table_quality`` = the preset's), ``"diffusion"`` (``flux_limited`` = False),
+        ``table_quality`` = the preset's), ``"diffusion"`` (``flux_limited`` = False,
+        ``sweep_orders`` = 0),
         ``"path_traced"`` (``samples_per_pixel`` = 16 / 64 / 256 by ``quality``,
         ``target_error`` = None, ``max_depth`` = None, ``denoise`` = False) or ``"auto"``
         (``time_budget`` = None; rules in :meth:`Renderer.render`). The lit models also take
