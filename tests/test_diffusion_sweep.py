@@ -297,3 +297,17 @@ def test_hat_source_of_a_slab_under_a_directional_light():
     assert np.max(np.abs(got / ((1 + np.cosh(sh / 2)) / 2) - 1)) < 1e-5, got
     assert np.max(np.abs(got / (2 * (np.cosh(sh) - 1) / sh ** 2) - 1)) < sh ** 2 / 40, got
     assert np.allclose(w[n // 2, n // 2, inner], [0, 0, -1])
+
+
+def test_sweeps_refuse_a_mean_cosine_per_node():
+    """The sweeps apply one phase function everywhere: a g per node is refused before any work."""
+    import pv_ambient as pa
+    from pv_ambient import datasets
+
+    r = pa.Renderer(datasets.cloud(n=8), transfer_function=pa.TransferFunction(**datasets.suggested_style("cloud")))
+    grid = r.light_grid()
+    light = pa.PointLight((0.1, 0.2, 0.3), 2.0)
+    medium = dm.hat_medium(r.optics, r.geometry)
+    with pytest.raises(ValueError, match="one phase function"):
+        dm.solve_for_light(light, np.full(medium.shape, 0.3), medium=medium, geometry=r.geometry,
+                           tau=r.optical_depth(light, grid), light_grid=grid, sweep_orders=2)

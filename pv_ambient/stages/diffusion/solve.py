@@ -32,6 +32,13 @@ previous channel's solution scaled by the source power — replaces the plain fi
 lagged passes start from it. Where σt' = 0 the limiter gives ``D = φ/|∇φ − 3Q1|`` (free
 streaming, at most the vacuum floor's ℓ̄/3).
 
+Transport sweeps
+----------------
+:func:`solve_for_light` with ``sweep_orders = K`` carries the first K scattering orders by
+discrete-ordinates sweeps (:mod:`.ordinates`, docs/diffusion.rst §5) and solves diffusion (plain
+or flux-limited, as above) only for the light scattered more than K times, from order K's
+fluence and flux; φ and F are the sums.
+
 A solve that reaches ``maxiter`` (or ``max_outer``) first warns (``UserWarning``).
 
 Measured errors against path tracing for several floors, iteration counts and the limiter's
@@ -459,6 +466,8 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
                 direction=None if np.allclose(R, np.eye(3)) else R)
     opts.update(options)
     t_start = time.perf_counter()
+    if sweep_orders:
+        kind, pg = _phase_kind(g)  # before any work: one phase function for the whole medium
     Q0 = Q1 = None
     first = []  # the sweeps' first order per light: (Q0, ω)
     for lt, tau_l in zip(lights, taus):
@@ -470,16 +479,14 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
             Q0, Q1 = (q0, q1) if Q0 is None else (Q0 + q0, Q1 + q1)
     if not sweep_orders:
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
-    kind, pg = _phase_kind(g)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
                                            association=opts["association"], direction=opts["direction"],
                                            directions=sweep_directions)
     # the light scattered more than K times: diffusion from order K's moments
     alb = medium.albedo if medium.albedo.ndim == 4 else medium.albedo[..., None]
     sig_s = alb * medium.sigma_t[..., None]
-    gm = check_mean_cosine(g, medium.shape)
-    gq = gm if np.ndim(gm) == 0 else gm[..., None, None]
-    sol = solve_in_medium(medium, g, sp, sig_s * phi_k, gq * sig_s[..., None] * F_k, **opts)
+    gm = float(check_mean_cosine(g, ()))
+    sol = solve_in_medium(medium, g, sp, sig_s * phi_k, gm * sig_s[..., None] * F_k, **opts)
     sol.phi = sol.phi + phi
     sol.flux = (sol.flux + F).astype(np.float32)
     sol.time = time.perf_counter() - t_start
