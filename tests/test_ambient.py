@@ -10,6 +10,7 @@ import pv_ambient as pa
 from pv_ambient.inputs.camera import Camera
 from pv_ambient.inputs.phase import as_phase
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
 
 CAM = Camera((0.2, -4.0, 0.3), (0, 0, 0), (0, 0, 1), view_angle=35)
 SIZE = (24, 20)
@@ -167,14 +168,17 @@ def test_auto_rules():
     assert res.metadata["model"] == "ambient_scattering"
     tab = [v for k, v in r.cache.items() if k[0] == "table"][0]
     assert tab.D.shape[2] == 1
-    # "accurate" asks for the measured most accurate noise-free model: flux-limited diffusion
+    # "accurate" asks for the measured most accurate noise-free model: the first scattering
+    # orders by transport sweeps, flux-limited diffusion for the rest
     res = r.render(camera=CAM, window_size=SIZE, model="auto", quality="accurate")
     assert res.metadata["model"] == "diffusion"
-    assert any(k[0] == "diffusion" and k[-1] is True for k in r.cache)
+    assert res.metadata["flux_limited"] is True and res.metadata["sweep_orders"] == AUTO_SWEEP_ORDERS
+    assert any(k[0] == "diffusion" and k[4] is True and k[5] == AUTO_SWEEP_ORDERS for k in r.cache)
     # the default ("balanced"): plain diffusion, lower error than ambient scattering on every
     # trade scene at a similar camera-move cost
     res = r.render(camera=CAM, window_size=SIZE, model="auto")
     assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is False
+    assert res.metadata["sweep_orders"] == 0
     assert any(k[0] == "diffusion" and k[-1] is False for k in r.cache)
 
 

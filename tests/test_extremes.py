@@ -107,6 +107,7 @@ MODELS = {
     "path_traced": ("path_traced", {"samples_per_pixel": PT_SPP}),
     "diffusion": ("diffusion", {}),
     "diffusion/flux_limited": ("diffusion", {"flux_limited": True}),
+    "diffusion/sweeps": ("diffusion", {"flux_limited": True, "sweep_orders": 2}),
 }
 
 #: Rows known to fail, as strict xfails (a fix makes them pass and the suite says so).
@@ -302,7 +303,7 @@ SCALE_ATOL_ALPHA = 1e-6
 #: max |Δradiance| / max(radiance) measured over s ∈ {1e−4, 1e4, 1e−9} and both scenes
 SCALE_MEASURED = {"emission_absorption": 4e-8, "ambient_occlusion": 7e-8, "single_scattering": 7e-8,
                   "ambient_scattering/beer_lambert": 7e-8, "ambient_scattering/tube": 7e-8, "path_traced": 1.4e-7,
-                  "diffusion": 7e-8, "diffusion/flux_limited": 7e-8}
+                  "diffusion": 7e-8, "diffusion/flux_limited": 7e-8, "diffusion/sweeps": 7e-8}
 
 
 def scaled_scene(kind, s):

@@ -9,7 +9,7 @@ from ``field`` and albedo/emission from ``aux`` (physical arrays, or a baked TF)
 from __future__ import annotations
 
 from ._jit import driver, prange, scalar
-from .interp import trilinear
+from .interp import trilinear, trilinear_c
 
 MODE_LUT = 0
 MODE_GRID = 1
@@ -81,3 +81,76 @@ def scattering_nodes(mode, field, table, lut_lo, lut_inv, aux, node0, node1, nod
                                                                  lut_value(table, k0, k1, f, 3)))
                 if sig > 0.0 and alb > 0.0:
                     out[node0[i], node1[j], node2[k]] = True
+
+
+@scalar(inline=True)
+def scattering_at(mode, field, table, lut_lo, lut_inv, aux, x, y, z):
+    """(σt, σs r, σs g, σs b) at index-space point (x, y, z): extinction and scattering
+    coefficient ``albedo·σt``, each channel classified at the point (post-classification)."""
+    s = trilinear(field, x, y, z)
+    if mode == MODE_GRID:
+        return (s, s * trilinear_c(aux, x, y, z, 0), s * trilinear_c(aux, x, y, z, 1),
+                s * trilinear_c(aux, x, y, z, 2))
+    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
+    st = lut_value(table, k0, k1, f, 0)
+    return (st, st * lut_value(table, k0, k1, f, 1), st * lut_value(table, k0, k1, f, 2),
+            st * lut_value(table, k0, k1, f, 3))
+
+
+@scalar(inline=True)
+def hat_axis_weight(p, off, lo, hi):
+    """Weight along one axis of the sub-sample at index ``p`` (offset ``off`` ∈ {−½, 0, ½} from
+    its node) in ``∫ hat_n(x) f(x) dx ≈ (h/2) Σ w f`` (trapezoid rule on the half-index grid): the
+    hat's value (1 at the node, ½ half-way) times the trapezoid's end weight (½ on a box face);
+    0 outside the box [lo, hi]. ``hat_n`` is node n's trilinear basis function."""
+    if p < lo - 1e-9 or p > hi + 1e-9:
+        return 0.0
+    w = 1.0 if off == 0.0 else 0.5
+    if abs(p - lo) <= 1e-9 or abs(p - hi) <= 1e-9:
+        w *= 0.5
+    return w
+
+
+@driver
+def hat_medium(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, sig_out, sigs_out):
+    """Each node's hat-weighted mean of σt (``sig_out``, (nx, ny, nz)) and of σs rgb
+    (``sigs_out``, (nx, ny, nz, 3)), ``∫ hat_n σ dV / ∫ hat_n dV``, classified at 3³ half-index
+    sub-samples (:func:`hat_axis_weight`; box ``[box_lo, box_hi]`` in index units). Summed over
+    the nodes with their volumes it is the integral of the classified field (up to the
+    quadrature), where the node samples' own values are not: classification is not linear."""
+    nx, ny, nz = sig_out.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                wsum = 0.0
+                st = 0.0
+                sr = 0.0
+                sg = 0.0
+                sb = 0.0
+                for a in range(3):
+                    ox = 0.5 * (a - 1)
+                    wa = hat_axis_weight(i + ox, ox, box_lo[0], box_hi[0])
+                    if wa == 0.0:
+                        continue
+                    for b in range(3):
+                        oy = 0.5 * (b - 1)
+                        wb = hat_axis_weight(j + oy, oy, box_lo[1], box_hi[1])
+                        if wb == 0.0:
+                            continue
+                        for c in range(3):
+                            oz = 0.5 * (c - 1)
+                            wc = hat_axis_weight(k + oz, oz, box_lo[2], box_hi[2])
+                            if wc == 0.0:
+                                continue
+                            w = wa * wb * wc
+                            t, r, g, bb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, i + ox, j + oy,
+                                                        k + oz)
+                            wsum += w
+                            st += w * t
+                            sr += w * r
+                            sg += w * g
+                            sb += w * bb
+                sig_out[i, j, k] = st / wsum
+                sigs_out[i, j, k, 0] = sr / wsum
+                sigs_out[i, j, k, 1] = sg / wsum
+                sigs_out[i, j, k, 2] = sb / wsum

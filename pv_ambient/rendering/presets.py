@@ -79,7 +79,7 @@ DEFAULT_SPP = QUALITY_PRESETS[DEFAULT_QUALITY]["samples_per_pixel"]
 
 #: Options that belong to particular models (accepted by every render call, used where they apply).
 MODEL_OPTIONS = frozenset({"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
-                           "target_error", "time_budget"})
+                           "sweep_orders", "target_error", "time_budget"})
 #: Every option a scene file may carry at top level besides the common ones.
 SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
 #: Light propagation modes of ambient scattering (docs/ambient_scattering.rst §3) and the default
@@ -93,6 +93,9 @@ TAU_OPAQUE = 700.0
 MAJORANT_BLOCK = 8
 #: Default early-ray-termination threshold on the transmittance.
 ERT = 1e-5
+#: Scattering orders that ``auto`` carries by transport sweeps with ``quality="accurate"``
+#: (flux-limited diffusion for the rest; docs/diffusion.rst §5, docs/models.rst).
+AUTO_SWEEP_ORDERS = 4
 #: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
 BUDGET_MAX_SPP = 4096
 

@@ -69,7 +69,8 @@ def check_ray_end(ray_end, size):
 #: model: they may be given to every model (one scene, many models) without a warning.
 OPTION_MODELS = {
     "samples_per_pixel": ("path_traced",), "target_error": ("path_traced",), "max_depth": ("path_traced",),
-    "denoise": ("path_traced",), "flux_limited": ("diffusion",), "propagation": ("ambient_scattering",),
+    "denoise": ("path_traced",), "flux_limited": ("diffusion",), "sweep_orders": ("diffusion",),
+    "propagation": ("ambient_scattering",),
     "radius": ("ambient_occlusion", "ambient_scattering"), "ambient_radiance": ("ambient_occlusion",),
 }
 #: Bytes per pixel a render holds at its peak (image buffers, float64 sums and their conversion):

@@ -250,7 +250,8 @@ class SceneStages:
             self.cache[key] = ball
         return self.cache[key]
 
-    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu"):
+    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
+                  sweep_orders=0):
         """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (docs/diffusion.rst),
         (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
         relight re-solves only the light that changed (warm-started from its previous solution).
@@ -261,24 +262,31 @@ class SceneStages:
 
         σt and albedo are checked and converted once per scene (a ``DiffusionMedium`` cached
         under ``("diffusion_medium",)``); each light's optical depth comes from
-        :meth:`optical_depth` on the light grid of ``grid``'s factor."""
-        from ..stages.diffusion import DiffusionMedium, solve_for_light
+        :meth:`optical_depth` on the light grid of ``grid``'s factor. ``sweep_orders``: the first
+        scattering orders by transport sweeps (docs/diffusion.rst §5)."""
+        from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light
 
         g = float(phase.mean_cosine)
         total = None
-        keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited)) for lt in lights)
+        sweep = int(sweep_orders)
+        # the sweeps need the phase function itself, plain diffusion only its mean cosine
+        keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited))
+                     + ((sweep, phase.canonical()) if sweep else ()) for lt in lights)
         if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
             return self.cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
-        for lt in lights:
-            key = ("diffusion", lt, grid.key(), g, bool(flux_limited))
+        for lt, key in zip(lights, keys):
             if key not in self.cache:
                 t = time.perf_counter()
-                medium = self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
-                    self.optics.sigma_grid(), self.optics.albedo_grid()))
+                if sweep:  # the classified field's node means (docs/diffusion.rst §5)
+                    medium = self.cache.get(("diffusion_medium_hat",), lambda: hat_medium(self.optics, self.geometry))
+                else:
+                    medium = self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
+                        self.optics.sigma_grid(), self.optics.albedo_grid()))
                 lgrid = self.light_grid(grid.factor)
-                sol = solve_for_light(lt, g, medium=medium, geometry=self.geometry,
+                extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
+                sol = solve_for_light(lt, phase if sweep else g, medium=medium, geometry=self.geometry,
                                       tau=self.optical_depth(lt, lgrid, backend), light_grid=lgrid,
-                                      flux_limited=bool(flux_limited), progress_bar=progress_bar)
+                                      flux_limited=bool(flux_limited), progress_bar=progress_bar, **extra)
                 packed = sol.packed()
                 if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
                                                                                        packed[..., 8:12]):

@@ -24,7 +24,10 @@ The package
 - :mod:`.solve`: :func:`solve_diffusion` (vacuum floor, flux limiter with Anderson mixing,
   channel reuse), :func:`mean_chord` and the per-light entry point :func:`solve_for_light`,
   which takes arrays and small records — the caller computes the light's optical depth;
-- :mod:`.solution`: :class:`DiffusionSolution` and :func:`camera_source`.
+- :mod:`.solution`: :class:`DiffusionSolution` and :func:`camera_source`;
+- :mod:`.ordinates`: the transport sweeps that carry the first scattering orders
+  (``solve_for_light(sweep_orders=K)``, docs/diffusion.rst §5), with the hat-projected medium and
+  first-collision source of :mod:`.sources` (:func:`hat_medium`, :func:`hat_source`).
 
 Measured figures (errors against path tracing, iteration counts, times):
 ``benchmarks/results/diffusion_notes.md``.
@@ -35,7 +38,7 @@ This package imports numpy, scipy and the kernels only (no pyvista or vtk).
 from .medium import DiffusionMedium
 from .solution import DiffusionSolution, camera_source
 from .solve import mean_chord, solve_diffusion, solve_for_light, solve_in_medium
-from .sources import direct_irradiance, first_collision_source, source_in_medium
+from .sources import direct_irradiance, first_collision_source, hat_medium, hat_source, source_in_medium
 
 __all__ = [
     "DiffusionMedium",
@@ -43,6 +46,8 @@ __all__ = [
     "camera_source",
     "direct_irradiance",
     "first_collision_source",
+    "hat_medium",
+    "hat_source",
     "mean_chord",
     "solve_diffusion",
     "solve_for_light",

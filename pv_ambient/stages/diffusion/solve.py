@@ -32,6 +32,13 @@ previous channel's solution scaled by the source power — replaces the plain fi
 lagged passes start from it. Where σt' = 0 the limiter gives ``D = φ/|∇φ − 3Q1|`` (free
 streaming, at most the vacuum floor's ℓ̄/3).
 
+Transport sweeps
+----------------
+:func:`solve_for_light` with ``sweep_orders = K`` carries the first K scattering orders by
+discrete-ordinates sweeps (:mod:`.ordinates`, docs/diffusion.rst §5) and solves diffusion (plain
+or flux-limited, as above) only for the light scattered more than K times, from order K's
+fluence and flux; φ and F are the sums.
+
 A solve that reaches ``maxiter`` (or ``max_outer``) first warns (``UserWarning``).
 
 Measured errors against path tracing for several floors, iteration counts and the limiter's
@@ -51,8 +58,9 @@ import numpy as np
 
 from ...inputs.validation import check_array, check_choice, check_int, check_real
 from .medium import DiffusionMedium, check_mean_cosine
+from .ordinates import DEFAULT_DIRECTIONS, scattering_orders
 from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
-from .sources import direct_irradiance, source_in_medium
+from .sources import direct_irradiance, hat_source, source_in_medium
 from .solution import DiffusionSolution
 from .system import NO_Q1, FVGrid, assemble, check_boundary, node_flux, power_balance, reflects
 
@@ -399,17 +407,24 @@ def _proportional(a, s0, s1, a_prev, s0_prev, s1_prev):
     return k
 
 
-def solve_for_light(light, g, *, medium, geometry, tau, light_grid, **options):
+def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders=0,
+                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, **options):
     """Direct irradiance → first-collision source → diffusion for a light (or several).
 
     A sequence of lights sums their sources into one solve (the problem is linear; per-light
     solves instead let a relight re-solve one light, warm-started with ``x0``).
 
+    With ``sweep_orders = K > 0`` the first K scattering orders are carried by transport sweeps
+    (:mod:`.ordinates`, docs/diffusion.rst §5) and only the light scattered more than K times by
+    diffusion, whose source is then order K's ``Q0 = σs φ_K``, ``Q1 = g σs F_K``; the returned
+    φ and F are the sums of both parts (``power`` is the diffusion part's balance).
+
     Parameters
     ----------
     light : PointLight, DirectionalLight or a sequence of them
     g : float or PhaseFunction
-        Mean cosine of the phase function.
+        Mean cosine of the phase function; the transport sweep needs the phase function itself
+        (a float stands for Henyey–Greenstein with that ``g``).
     medium : DiffusionMedium
         σt and albedo on the data grid, checked once per scene
         (``DiffusionMedium.from_arrays(optics.sigma_grid(), optics.albedo_grid())``).
@@ -420,6 +435,15 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, **options):
         the caller.
     light_grid : LightGrid
         The grid ``tau`` lives on.
+    sweep_orders : int, default: 0
+        Scattering orders carried by transport sweeps (0: diffusion from the first-collision
+        source, §1–3).
+    sweep_directions : int or (int, int), default: (64, 32)
+        Directions of the sweeps: the first order's and the later orders'.
+    optics : Optics, optional
+        The transfer function's optics, classified at sub-samples for the sweeps' first-order
+        source (:func:`.sources.hat_source`); ``medium`` (trilinear) when None. For the sweeps
+        ``medium`` should be :func:`.sources.hat_medium`'s.
     **options
         Passed to :func:`solve_in_medium` (see :func:`solve_diffusion`); ``association`` and
         ``direction`` default to the geometry's.
@@ -433,16 +457,49 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, **options):
     taus = tau if isinstance(tau, (list, tuple)) else (tau,)
     if len(taus) != len(lights):
         raise ValueError(f"tau must give one optical depth per light: {len(lights)} lights, {len(taus)} tau")
-    Q0 = Q1 = None
-    for lt, tau_l in zip(lights, taus):
-        E, omega = direct_irradiance(lt, geometry, tau_l, light_grid)
-        q0, q1 = source_in_medium(medium, g, E, omega)
-        Q0, Q1 = (q0, q1) if Q0 is None else (Q0 + q0, Q1 + q1)
-    if Q0 is None:
+    if not lights:
         raise ValueError("light must be a light or a non-empty sequence of lights")
+    sweep_orders = check_int(sweep_orders, "sweep_orders", lo=0)
     sp = np.asarray(geometry.spacing, np.float64)
     R = np.asarray(geometry.index_to_world, np.float64)[:3, :3] / sp
     opts = dict(association=getattr(geometry, "association", "point"),
                 direction=None if np.allclose(R, np.eye(3)) else R)
     opts.update(options)
-    return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
+    t_start = time.perf_counter()
+    if sweep_orders:
+        kind, pg = _phase_kind(g)  # before any work: one phase function for the whole medium
+    Q0 = Q1 = None
+    first = []  # the sweeps' first order per light: (Q0, ω)
+    for lt, tau_l in zip(lights, taus):
+        if sweep_orders:
+            first.append(hat_source(lt, geometry, tau_l, light_grid, medium if optics is None else optics, medium))
+        else:
+            E, omega = direct_irradiance(lt, geometry, tau_l, light_grid)
+            q0, q1 = source_in_medium(medium, g, E, omega)
+            Q0, Q1 = (q0, q1) if Q0 is None else (Q0 + q0, Q1 + q1)
+    if not sweep_orders:
+        return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
+    phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
+                                           association=opts["association"], direction=opts["direction"],
+                                           directions=sweep_directions)
+    # the light scattered more than K times: diffusion from order K's moments
+    alb = medium.albedo if medium.albedo.ndim == 4 else medium.albedo[..., None]
+    sig_s = alb * medium.sigma_t[..., None]
+    gm = float(check_mean_cosine(g, ()))
+    sol = solve_in_medium(medium, g, sp, sig_s * phi_k, gm * sig_s[..., None] * F_k, **opts)
+    sol.phi = sol.phi + phi
+    sol.flux = (sol.flux + F).astype(np.float32)
+    sol.time = time.perf_counter() - t_start
+    return sol
+
+
+def _phase_kind(g):
+    """(kernel kind, parameter) of a phase function, or of Henyey–Greenstein for a mean cosine."""
+    from ..._kernels.phase import HENYEY_GREENSTEIN
+
+    if hasattr(g, "kind") and hasattr(g, "g"):
+        return int(g.kind), float(g.g)
+    if np.ndim(g) != 0:
+        raise ValueError("sweep_orders needs one phase function for the whole medium (a number or a "
+                         "PhaseFunction), not a mean cosine per node")
+    return HENYEY_GREENSTEIN, float(check_mean_cosine(g, ()))
