@@ -20,7 +20,7 @@ import numpy as np
 
 from ._jit import driver, prange, scalar
 from .interp import trilinear
-from .medium import hat_axis_weight, scattering_at
+from .medium import hat_sub, scattering_at
 from .lightvol import TIE
 
 
@@ -609,52 +609,37 @@ def hat_source(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_p
                 ux = 0.0
                 uy = 0.0
                 uz = 0.0
-                for a in range(3):
-                    ox = 0.5 * (a - 1)
-                    wa = hat_axis_weight(i + ox, ox, box_lo[0], box_hi[0])
-                    if wa == 0.0:
+                for q in range(27):
+                    px, py, pz, w = hat_sub(q, i, j, k, box_lo, box_hi)
+                    if w == 0.0:
                         continue
-                    for b in range(3):
-                        oy = 0.5 * (b - 1)
-                        wb = hat_axis_weight(j + oy, oy, box_lo[1], box_hi[1])
-                        if wb == 0.0:
-                            continue
-                        for c in range(3):
-                            oz = 0.5 * (c - 1)
-                            wc = hat_axis_weight(k + oz, oz, box_lo[2], box_hi[2])
-                            if wc == 0.0:
-                                continue
-                            w = wa * wb * wc
-                            px = i + ox
-                            py = j + oy
-                            pz = k + oz
-                            wsum += w
-                            st, sr, sg, sb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
-                            if st <= 0.0:
-                                continue
-                            e = math.exp(-tau_at(tau, tlo, tinv, px, py, pz))
-                            if is_point:
-                                wx = M[0, 0] * px + M[0, 1] * py + M[0, 2] * pz + M[0, 3] - lvec[0]
-                                wy = M[1, 0] * px + M[1, 1] * py + M[1, 2] * pz + M[1, 3] - lvec[1]
-                                wz = M[2, 0] * px + M[2, 1] * py + M[2, 2] * pz + M[2, 3] - lvec[2]
-                                d2 = wx * wx + wy * wy + wz * wz
-                                e /= d2
-                                d = math.sqrt(d2)
-                                vx = wx / d
-                                vy = wy / d
-                                vz = wz / d
-                            else:
-                                vx = lvec[0]
-                                vy = lvec[1]
-                                vz = lvec[2]
-                            we = w * e
-                            qr += we * sr
-                            qg += we * sg
-                            qb += we * sb
-                            bw += we * st
-                            ux += we * st * vx
-                            uy += we * st * vy
-                            uz += we * st * vz
+                    wsum += w
+                    st, sr, sg, sb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
+                    if st <= 0.0:
+                        continue
+                    e = math.exp(-tau_at(tau, tlo, tinv, px, py, pz))
+                    if is_point:
+                        wx = M[0, 0] * px + M[0, 1] * py + M[0, 2] * pz + M[0, 3] - lvec[0]
+                        wy = M[1, 0] * px + M[1, 1] * py + M[1, 2] * pz + M[1, 3] - lvec[1]
+                        wz = M[2, 0] * px + M[2, 1] * py + M[2, 2] * pz + M[2, 3] - lvec[2]
+                        d2 = wx * wx + wy * wy + wz * wz
+                        e /= d2
+                        d = math.sqrt(d2)
+                        vx = wx / d
+                        vy = wy / d
+                        vz = wz / d
+                    else:
+                        vx = lvec[0]
+                        vy = lvec[1]
+                        vz = lvec[2]
+                    we = w * e
+                    qr += we * sr
+                    qg += we * sg
+                    qb += we * sb
+                    bw += we * st
+                    ux += we * st * vx
+                    uy += we * st * vy
+                    uz += we * st * vz
                 q_out[i, j, k, 0] = qr / wsum
                 q_out[i, j, k, 1] = qg / wsum
                 q_out[i, j, k, 2] = qb / wsum

@@ -111,6 +111,20 @@ def hat_axis_weight(p, off, lo, hi):
     return w
 
 
+
+@scalar(inline=True)
+def hat_sub(q, i, j, k, box_lo, box_hi):
+    """Sub-sample ``q`` (0 … 26) of node (i, j, k)'s 3³ half-index stencil: its index-space point
+    and weight ``w`` (the product of the three :func:`hat_axis_weight` factors; 0 outside the box),
+    visited in the order a, b, c = q // 9, q // 3 % 3, q % 3."""
+    ox = 0.5 * (q // 9 - 1)
+    oy = 0.5 * (q // 3 % 3 - 1)
+    oz = 0.5 * (q % 3 - 1)
+    w = (hat_axis_weight(i + ox, ox, box_lo[0], box_hi[0]) * hat_axis_weight(j + oy, oy, box_lo[1], box_hi[1])
+         * hat_axis_weight(k + oz, oz, box_lo[2], box_hi[2]))
+    return i + ox, j + oy, k + oz, w
+
+
 @driver
 def hat_medium(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, sig_out, sigs_out):
     """Each node's hat-weighted mean of σt (``sig_out``, (nx, ny, nz)) and of σs rgb
@@ -127,29 +141,16 @@ def hat_medium(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, sig_out
                 sr = 0.0
                 sg = 0.0
                 sb = 0.0
-                for a in range(3):
-                    ox = 0.5 * (a - 1)
-                    wa = hat_axis_weight(i + ox, ox, box_lo[0], box_hi[0])
-                    if wa == 0.0:
+                for q in range(27):
+                    px, py, pz, w = hat_sub(q, i, j, k, box_lo, box_hi)
+                    if w == 0.0:
                         continue
-                    for b in range(3):
-                        oy = 0.5 * (b - 1)
-                        wb = hat_axis_weight(j + oy, oy, box_lo[1], box_hi[1])
-                        if wb == 0.0:
-                            continue
-                        for c in range(3):
-                            oz = 0.5 * (c - 1)
-                            wc = hat_axis_weight(k + oz, oz, box_lo[2], box_hi[2])
-                            if wc == 0.0:
-                                continue
-                            w = wa * wb * wc
-                            t, r, g, bb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, i + ox, j + oy,
-                                                        k + oz)
-                            wsum += w
-                            st += w * t
-                            sr += w * r
-                            sg += w * g
-                            sb += w * bb
+                    t, r, g, bb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
+                    wsum += w
+                    st += w * t
+                    sr += w * r
+                    sg += w * g
+                    sb += w * bb
                 sig_out[i, j, k] = st / wsum
                 sigs_out[i, j, k, 0] = sr / wsum
                 sigs_out[i, j, k, 1] = sg / wsum
