@@ -206,12 +206,13 @@ class PathSums:
 
 def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
     """Add samples [s0, s1) of every pixel to the device sums (``args``: ``pathtrace_image``'s
-    records)."""
-    from ._kernels.cuda import BLOCK, grid_for, pathtrace_kernel
+    records, or ``residual_image``'s: the path tracer's four and a control variate's five)."""
+    from ._kernels.cuda import BLOCK, grid_for, pathtrace_kernel, residual_kernel
 
     h, w = sums.sum_hit.shape
+    kernel = pathtrace_kernel if len(args) == 4 else residual_kernel
     with _launch():
-        pathtrace_kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, sums.sum_rad, sums.sum_sq,
+        kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, sums.sum_rad, sums.sum_sq,
                                                 sums.sum_hit, 0, h)
     cache.tick()
 

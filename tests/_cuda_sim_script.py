@@ -26,6 +26,7 @@ gpu = pa.Renderer(grid, transfer_function=tf, lights=lights, backend="cuda")
 CASES = [("emission_absorption", {}), ("ambient_occlusion", {}), ("single_scattering", {"phase": 0.5}),
          ("ambient_scattering", {}), ("ambient_scattering", {"propagation": "tube"}),
          ("diffusion", {"flux_limited": True}), ("path_traced", {"samples_per_pixel": 2, "max_depth": 4}),
+         ("progressive", {"samples_per_pixel": 2, "max_depth": 4}),
          ("single_scattering", {"jitter": True, "seed": 7})]
 for model, opts in CASES:
     for c, cam in enumerate(cams[:2] if model == "ambient_scattering" and not opts else cams[:1]):

@@ -35,6 +35,7 @@ def sim(tmp_path_factory):
 MODELS = ["emission_absorption/cam0", "ambient_occlusion/cam0", "single_scattering/phase=0.5/cam0",
           "ambient_scattering/cam0", "ambient_scattering/cam1", "ambient_scattering/propagation=tube/cam0",
           "diffusion/flux_limited=True/cam0", "path_traced/samples_per_pixel=2,max_depth=4/cam0",
+          "progressive/samples_per_pixel=2,max_depth=4/cam0",
           "single_scattering/jitter=True,seed=7/cam0"]
 
 
@@ -141,6 +142,10 @@ def test_physics_exists_once():
     assert "sweep_node(" in inspect.getsource(lightvol.sweep_tau.py_func)
     assert "math." not in src and "exp(" not in src  # no arithmetic of the physics in the drivers
     # the scene travels in the records of _kernels/records.py, not in ~40 positional arguments
+    from pv_ambient._kernels import residual
+
+    assert "residual_pixel(" not in src
+    assert "residual_pixel(" in inspect.getsource(residual.residual_image.py_func)
     for fn in (raycast.raycast_pixel, pathtrace.pathtrace_pixel):
         assert len(inspect.signature(fn.py_func).parameters) <= 12, fn
 

@@ -191,3 +191,34 @@ def test_drag_frames_start_no_progress_bar_and_move_the_plane(scene, monkeypatch
     win.Render()
     assert not vol.moving and started  # the resting frame: the default delayed bars
     pl.close()
+
+
+def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
+    """``progressive``: a drag frame is its base model's picture (no samples, no noise); the
+    resting frame adds ``interactive_samples`` residual samples, each refinement as many again with
+    the next seed, their mean the same as one render of all of them."""
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="progressive", interactive=True,
+                                interactive_resolution=1.0, samples_per_pixel=6, interactive_samples=2)
+    r = vol.renderer
+    assert vol.result.metadata["spp"] == 2
+    win = pl.ren_win
+    win.SetDesiredUpdateRate(15.0)
+    pl.camera.Azimuth(7.0)
+    win.Render()
+    assert vol.moving and vol.volume_result.metadata["spp"] == 0
+    base = r.render(camera=pl.camera, window_size=SIZE, model="diffusion")
+    np.testing.assert_array_equal(vol.volume_result.radiance, base.radiance)
+    win.SetDesiredUpdateRate(0.0001)  # the camera rests
+    win.Render()
+    if vol.volume_result.metadata["spp"] == 0:  # same view and size: the timer's first tick starts the samples
+        assert vol.refine()
+    assert vol.volume_result.metadata["spp"] == 2
+    assert vol.refine() and vol.refine() and not vol.refine()  # 6 samples: done
+    assert vol.volume_result.metadata["spp"] == 6
+    parts = [r.render(camera=pl.camera, window_size=SIZE, model="progressive", samples_per_pixel=2, seed=s).radiance
+             for s in range(3)]
+    np.testing.assert_allclose(vol.volume_result.radiance, np.mean(parts, axis=0), rtol=1e-5, atol=1e-6)
+    assert np.all(vol.volume_result.std_error >= 0)
+    pl.close()

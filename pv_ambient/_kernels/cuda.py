@@ -1,6 +1,6 @@
 """CUDA drivers (docs/architecture.rst): one thread per pixel (or light-grid node), each running the same
 scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
-:func:`.pathtrace.pathtrace_pixel`, :func:`.lightvol.sweep_node`), compiled for the GPU by
+:func:`.pathtrace.pathtrace_pixel`, :func:`.residual.residual_pixel`, :func:`.lightvol.sweep_node`), compiled for the GPU by
 :func:`._jit.cuda_kernel`.
 
 The kernels are generated from the scalar functions' own signatures (:func:`grid_kernel`), so
@@ -23,6 +23,7 @@ from ._jit import cuda_kernel
 from .lightvol import sweep_node
 from .pathtrace import pathtrace_pixel
 from .raycast import raycast_pixel
+from .residual import residual_pixel
 
 #: Threads per block (x: the fast index, image columns; y: rows).
 BLOCK = (16, 8)
@@ -56,10 +57,12 @@ def grid_kernel(scalar, x_name, y_name, shape_of):
 
 KERNELS = {"raycast": (raycast_pixel, "i", "j", "out_alpha"),
            "pathtrace": (pathtrace_pixel, "i", "j", "sum_hit"),
+           "residual": (residual_pixel, "i", "j", "sum_hit"),
            "sweep_layer": (sweep_node, "ic", "ib", "cur")}  # ic: contiguous in memory, fastest in a warp
 
 raycast_kernel = grid_kernel(*KERNELS["raycast"])
 pathtrace_kernel = grid_kernel(*KERNELS["pathtrace"])
+residual_kernel = grid_kernel(*KERNELS["residual"])
 sweep_layer_kernel = grid_kernel(*KERNELS["sweep_layer"])
 
 

@@ -356,6 +356,32 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     return out0, out1, out2
 
 
+@scalar(inline=True)
+def lit_source(model, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, diffusion):
+    """The in-scattered light per unit albedo (rgb) of lit ray-cast ``model`` at index-space point
+    (x, y, z) = world point w, seen along d: the baked or per-light direct light, plus ambient
+    scattering's ball term or diffusion's multiply-scattered light (module docstring). The march's
+    source there is ``a·this + (1 − a)·Le``; :mod:`.residual` evaluates the same function at a path's
+    first collision."""
+    if grid.baked:  # isotropic phase: the lights' in-scattering, baked
+        lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+    else:
+        lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
+    if model == AMBIENT_SCATTERING and not grid.baked:
+        bs, b1, b2, b3 = trilinear4(ambient.ball, x, y, z)
+        mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient,
+                                   ambient.radius * bs, b1, b2, b3)
+        lr += mr
+        lg += mg
+        lb += mb
+    elif model == DIFFUSION:
+        mr, mg, mb = diffusion_light(diffusion.field, x, y, z, dx, dy, dz, diffusion.g)
+        lr += mr
+        lg += mg
+        lb += mb
+    return lr, lg, lb
+
+
 @scalar
 def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
     """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
@@ -411,25 +437,8 @@ def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i,
                         sg = cg + ag * occ
                         sb = cb + ab * occ
                     else:
-                        wx = ox + tm * dx
-                        wy = oy + tm * dy
-                        wz = oz + tm * dz
-                        if grid.baked:  # isotropic phase: the lights' in-scattering, baked
-                            lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
-                        else:
-                            lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
-                        if model == AMBIENT_SCATTERING and not grid.baked:
-                            bs, b1, b2, b3 = trilinear4(ball, x, y, z)
-                            mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient,
-                                                       radius * bs, b1, b2, b3)
-                            lr += mr
-                            lg += mg
-                            lb += mb
-                        elif model == DIFFUSION:
-                            mr, mg, mb = diffusion_light(diffusion.field, x, y, z, dx, dy, dz, diffusion.g)
-                            lr += mr
-                            lg += mg
-                            lb += mb
+                        lr, lg, lb = lit_source(model, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, dx, dy, dz,
+                                                w2i, lights, grid, ambient, diffusion)
                         sr = ar * lr + (1.0 - ar) * er
                         sg = ag * lg + (1.0 - ag) * eg
                         sb = ab * lb + (1.0 - ab) * eb

@@ -35,6 +35,10 @@ STEP_GROW = 1.0
 STEP_SHRINK = 0.35
 
 
+#: The models whose picture refines while the camera rests (samples accumulated by :meth:`AmbientVolume.refine`).
+MONTE_CARLO = ("path_traced", "progressive")
+
+
 def _is_plane(actor):
     return bool(getattr(actor, "_pv_ambient_plane", False))
 
@@ -265,8 +269,8 @@ class AmbientVolume:
         t0 = time.perf_counter()
         ray_end = rgba = None
         if occluders:
-            if self.model == "path_traced":
-                raise ValueError("opaque geometry in the plotter cannot occlude a path_traced volume (ray_end is "
+            if self.model in MONTE_CARLO:
+                raise ValueError(f"opaque geometry in the plotter cannot occlude a {self.model} volume (ray_end is "
                                  "supported by the ray-cast models); use a ray-cast model or occlusion=False")
             if self._pass is None:
                 self._pass = GeometryPass(self.plotter.ren_win.GetMultiSamples())
@@ -284,7 +288,11 @@ class AmbientVolume:
                                             background=self.options.get("background", (0.0, 0.0, 0.0)),
                                             display=self.display)
             shown.metadata.update(occluders=len(occluders), time_geometry=t_geometry)
-        elif self.model == "path_traced" and self.interactive:
+        elif self.model == "progressive" and self.interactive and self.moving:
+            # the camera moves: the base model's noise-free picture (no samples); they follow at rest
+            self._accumulator = None
+            shown = volume = self._render_volume(cam, size, samples_per_pixel=0)
+        elif self.model in MONTE_CARLO and self.interactive:
             shown = volume = self._first_pass(cam, size)
         else:
             shown = volume = self._render_volume(cam, size, **({} if self._own_background else
@@ -343,7 +351,12 @@ class AmbientVolume:
         (only when samples were added). The interactive timer calls it; call it yourself where
         there is no event loop."""
         acc = self._accumulator
-        if self.model != "path_traced" or acc is None:
+        if self.model not in MONTE_CARLO or acc is None:
+            if self.model == "progressive" and self.interactive and self.result is not None and not self.moving:
+                self.update(force=True)  # the camera came to rest after a drag: the first samples
+                if render:
+                    self.plotter.render()
+                return True
             return False
         target = self.options.get("target_error")
         if acc.samples >= int(self.options.get("samples_per_pixel", DEFAULT_SPP)):
@@ -381,7 +394,7 @@ class AmbientVolume:
         """Path tracing in interactive mode: a repeating timer on the plotter's interactor that
         calls :meth:`refine` while the camera rests (its events arrive once the interactor's
         event loop runs, i.e. after ``show()``)."""
-        if self.model != "path_traced" or self.observer is None or self._timer is not None:
+        if self.model not in MONTE_CARLO or self.observer is None or self._timer is not None:
             return
         iren = getattr(self.plotter, "iren", None)
         if iren is None or getattr(iren, "interactor", None) is None:
@@ -396,7 +409,7 @@ class AmbientVolume:
         if self.observer is None:
             self.interactive = True
             self.observer = self.plotter.ren_win.AddObserver("StartEvent", self._on_start)
-            if self.model == "path_traced" and self._accumulator is None:
+            if self.model in MONTE_CARLO and self._accumulator is None:
                 self.update(force=True)
             self._ensure_timer()
         return self.observer
@@ -482,7 +495,9 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         and while the camera rests a repeating timer on the plotter's interactor (once it is
         shown) adds as many again every ``refine_interval`` ms, averaging, up to
         ``samples_per_pixel`` (or ``target_error``); without an event loop (off-screen) call
-        :meth:`AmbientVolume.refine` yourself. While the camera is being dragged (the render window
+        :meth:`AmbientVolume.refine` yourself. ``model="progressive"`` (docs/progressive.rst)
+        draws its base model's noise-free picture while the camera moves and, once it rests,
+        refines it the same way (residual samples). While the camera is being dragged (the render window
         asks for an interactive frame rate, :attr:`AmbientVolume.moving`) the picture is rendered
         at ``interactive_resolution`` of the window per axis and, while frames are slower than the
         rate the window asks for, with a longer ray step (doubled per slow frame, up to
@@ -496,7 +511,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         Render with this renderer (its volume, transfer function and lights, and its caches)
         instead of building one from ``grid``, ``transfer_function``, ``scalars``, ``lights``.
     interactive_samples : int, default: 4
-        Path tracing in interactive mode: samples per pixel per pass (≥ 2).
+        Path tracing (and ``progressive``) in interactive mode: samples per pixel per pass (≥ 2).
     refine_interval : int, default: 100
         Path tracing in interactive mode: milliseconds between refinement passes.
     interactive_resolution : float, default: 0.5
@@ -524,7 +539,8 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     Raises
     ------
     ValueError
-        ``model="path_traced"`` with opaque meshes in the renderer and ``occlusion=True``.
+        ``model="path_traced"`` or ``"progressive"`` with opaque meshes in the renderer and
+        ``occlusion=True``.
 
     Examples
     --------

@@ -49,6 +49,7 @@ MODEL_TABLE = (
     ModelSpec("ambient_scattering", 3, lit=True, ball=True, radius_voxels=8.0, title="ambient scattering"),
     ModelSpec("diffusion", 4, lit=True, title="diffusion"),
     ModelSpec("path_traced", None, lit=True, title="path traced"),
+    ModelSpec("progressive", None, lit=True, ball=True, radius_voxels=8.0, title="progressive"),
     ModelSpec("auto", None, lit=True, ball=True, radius_voxels=8.0, title="auto"),
 )
 MODEL_SPECS = {m.name: m for m in MODEL_TABLE}
@@ -79,7 +80,10 @@ DEFAULT_SPP = QUALITY_PRESETS[DEFAULT_QUALITY]["samples_per_pixel"]
 
 #: Options that belong to particular models (accepted by every render call, used where they apply).
 MODEL_OPTIONS = frozenset({"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
-                           "sweep_orders", "target_error", "time_budget"})
+                           "sweep_orders", "target_error", "time_budget", "base_model"})
+#: The noise-free models ``progressive`` can refine (its ``base_model``; docs/progressive.rst) and its default.
+PROGRESSIVE_BASES = ("single_scattering", "ambient_scattering", "diffusion")
+DEFAULT_PROGRESSIVE_BASE = "diffusion"
 #: Every option a scene file may carry at top level besides the common ones.
 SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
 #: Light propagation modes of ambient scattering (docs/ambient_scattering.rst §3) and the default

@@ -23,12 +23,13 @@ from ..inputs.lights import as_lights, needs_camera, pack_lights
 from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
 from ..inputs.validation import check_choice, check_int, check_real, check_rgb, check_window_size
-from ..stages.reference import RR_DEPTH
+from ..stages.reference import EQ_RADIUS, RR_DEPTH
 from .cache import SceneCache
 from .presets import (
     ALL_MODELS,
     AUTO_SWEEP_ORDERS,
     BUDGET_MAX_SPP,
+    DEFAULT_PROGRESSIVE_BASE,
     DEFAULT_PROPAGATION,
     DEFAULT_SPP,
     ERT,
@@ -36,6 +37,7 @@ from .presets import (
     MODEL_OPTIONS,
     MODEL_SPECS,
     MODEL_TABLE,
+    PROGRESSIVE_BASES,
     PROPAGATION_MODES,
     QUALITIES,
     QUALITY_PRESETS,
@@ -345,8 +347,10 @@ class Renderer(SceneStages):
             raise TypeError(f"denoise must be True or False, got {denoise!r}")
         if "sweep_orders" in model_options:
             check_int(model_options["sweep_orders"], "sweep_orders", lo=0)
-        if model == "path_traced" and ray_end is not None:
-            raise ValueError("ray_end (opaque geometry) is supported by the ray-cast models, not by path_traced")
+        if model in ("path_traced", "progressive") and ray_end is not None:
+            raise ValueError(f"ray_end (opaque geometry) is supported by the ray-cast models, not by {model}")
+        if "base_model" in model_options:
+            check_choice(model_options["base_model"], "base_model", PROGRESSIVE_BASES)
         return RenderRequest(
             camera=cam, window_size=size, model=model, quality=quality, step=step, jitter=bool(jitter),
             seed=check_int(seed, "seed", lo=0), background=check_rgb(background, "background"),
@@ -367,6 +371,8 @@ class Renderer(SceneStages):
         options = {**req.options, **extra}
         if model == "path_traced":
             res = self._path_trace(req, options)
+        elif model == "progressive":
+            res = self._progressive(req, options)
         else:
             res = self._render(req, model, options)
         if MODEL_SPECS[req.model].lit:
@@ -374,7 +380,9 @@ class Renderer(SceneStages):
             warn_black(self, res, req.background)
         return res
 
-    def _render(self, req, model, model_options):
+    def _render(self, req, model, model_options, records=None):
+        """A ray-cast model's picture; ``records``: a list to receive the kernel's records (the
+        model id and the records after it), when there is a medium to march."""
         t_start = time.perf_counter()
         cam, size, step, radius, ph = req.camera, req.window_size, req.step, req.radius, req.phase
         backend, progress_bar = req.backend, req.progress_bar
@@ -451,6 +459,8 @@ class Renderer(SceneStages):
                     K.medium_of(self.optics, self.majorant(), MAJORANT_BLOCK),
                     lrec, grec, arec,
                     K.Diffusion(diff, float(ph.mean_cosine)))
+            if records is not None:
+                records.append(args)
             with stage_bar(progress_bar if not inner else False, f"ray cast ({model})"):
                 backend = run_raycast(args, rad, alpha, backend=backend, asked=asked,
                                       device_cache=self.device_cache if backend == "cuda" else None,
@@ -564,6 +574,73 @@ class Renderer(SceneStages):
             res.metadata["time_denoise"] = time.perf_counter() - t
             res.metadata["time_render"] += res.metadata["time_denoise"]
         return res
+
+    def _progressive(self, req, options):
+        """The ``progressive`` model (docs/progressive.rst): the noise-free ``base_model``'s picture
+        plus the mean of ``samples_per_pixel`` residual path samples, that model's source at each
+        path's first collision as a control variate (:mod:`pv_ambient._kernels.residual`). The
+        base picture of a view is cached (the interactive mode's refinement passes add samples to
+        one view without marching it again)."""
+        from ..stages.reference import path_trace
+
+        t_start = time.perf_counter()
+        base = options.get("base_model", DEFAULT_PROGRESSIVE_BASE)
+        base_options = {k: options[k] for k in ("flux_limited", "sweep_orders") if k in options}
+        if base == "diffusion" and req.quality == "accurate":  # as auto: the sweeps and flux limiting
+            base_options = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS, **base_options}
+        cam, size = req.camera, req.window_size
+        key = ("progressive_base", base, tuple(sorted(base_options.items())), tuple(self.lights),
+               np.asarray(cam.params(size), np.float64).tobytes(), tuple(size), req.step, req.radius,
+               req.propagation, req.phase.canonical(), req.light_resolution, req.table_quality, req.bake_lights,
+               req.early_termination, req.background.tobytes(), req.backend)
+        spp = check_int(options.get("samples_per_pixel", DEFAULT_SPP), "samples_per_pixel", lo=0)
+        if key in self.cache:
+            nf, records, control_image = self.cache[key]
+        else:
+            records = []
+            nf = self._render(req, base, base_options, records=records)
+            control_image = None
+        if control_image is None and records and spp > 0:  # the first samples: the control's picture
+            control_image = nf.radiance
+            args = records[0]
+            lrec = args[4]
+            # the control's point lights: I/d² clamped at the equiangular radius (the path tracer
+            # samples the singular part near a light; the control stays smooth there) — its own march
+            c = self.geometry.corners
+            rc = EQ_RADIUS * float(np.max(np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)))
+            if np.any(lrec.kind == 0) and rc * rc > lrec.d2min:
+                args = args[:4] + (lrec._replace(d2min=rc * rc),) + args[5:]
+                w, h = req.window_size
+                control_image = np.zeros((h, w, 3), np.float32)
+                run_raycast(args, control_image, np.zeros((h, w), np.float32), backend=req.backend,
+                            asked=req.asked, device_cache=self.device_cache if req.backend == "cuda" else None,
+                            progress_bar=False, name="ray cast (control)")
+                records = [args]
+        for old in list(self.cache.keys("progressive_base")):
+            if old != key:
+                del self.cache[old]  # one view at a time: a camera move replaces it
+        self.cache[key] = (nf, records, control_image)
+        t_base = time.perf_counter() - t_start
+        meta = dict(nf.metadata, model="progressive", requested_model=req.model, base_model=base,
+                    time_base=t_base)
+        if not records or spp == 0:  # the base picture: the first frame (or exact: nothing to march)
+            meta.update(spp=0, relative_error=0.0, time_render=time.perf_counter() - t_start)
+            return RenderResult(radiance=nf.radiance, alpha=nf.alpha, camera=cam, metadata=meta,
+                                std_error=np.zeros_like(nf.radiance))
+        kernel_model, _, _, _, lrec, grec, arec, drec = records[0]
+        backend = req.backend
+        with stage_bar(False if req.progress_bar else req.progress_bar, "residual samples"):
+            out = path_trace(self.geometry, self.optics, self.majorant(MAJORANT_BLOCK), self.lights, cam, size,
+                             phase=req.phase, samples_per_pixel=spp, target_error=options.get("target_error"),
+                             max_depth=options.get("max_depth"), seed=req.seed, background=req.background,
+                             progress_bar=req.progress_bar is True, light_clamp=0.25 * req.step, backend=backend,
+                             device_cache=self.device_cache if backend == "cuda" else None,
+                             control=(kernel_model, lrec, grec, arec, drec), base=control_image)
+        radiance = (control_image.astype(np.float64) + out.radiance).astype(np.float32)
+        meta.update({k: out.metadata[k] for k in ("spp", "seed", "max_depth", "target_error", "relative_error",
+                                                  "light_clamp", "rr_depth", "equiangular")})
+        meta.update(time_samples=out.metadata["time"], time_render=time.perf_counter() - t_start - meta["time_prepare"])
+        return RenderResult(radiance=radiance, alpha=nf.alpha, camera=cam, metadata=meta, std_error=out.std_error)
 
     def albedo_guide(self, camera, window_size, *, step=None) -> np.ndarray:
         """The albedo guide of :func:`pv_ambient.stages.denoise.denoise_radiance`: (H, W, 3) float32 in [0, 1].

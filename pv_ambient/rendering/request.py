@@ -68,14 +68,15 @@ def check_ray_end(ray_end, size):
 #: ``phase``, ``light_resolution`` and ``table_quality`` describe the medium and the effort, not a
 #: model: they may be given to every model (one scene, many models) without a warning.
 OPTION_MODELS = {
-    "samples_per_pixel": ("path_traced",), "target_error": ("path_traced",), "max_depth": ("path_traced",),
-    "denoise": ("path_traced",), "flux_limited": ("diffusion",), "sweep_orders": ("diffusion",),
-    "propagation": ("ambient_scattering",),
-    "radius": ("ambient_occlusion", "ambient_scattering"), "ambient_radiance": ("ambient_occlusion",),
+    "samples_per_pixel": ("path_traced", "progressive"), "target_error": ("path_traced", "progressive"),
+    "max_depth": ("path_traced", "progressive"), "denoise": ("path_traced",),
+    "flux_limited": ("diffusion", "progressive"), "sweep_orders": ("diffusion", "progressive"),
+    "propagation": ("ambient_scattering", "progressive"), "base_model": ("progressive",),
+    "radius": ("ambient_occlusion", "ambient_scattering", "progressive"), "ambient_radiance": ("ambient_occlusion",),
 }
 #: Bytes per pixel a render holds at its peak (image buffers, float64 sums and their conversion):
 #: the ray cast's radiance and alpha, the path tracer's sums, moments and float32 copies.
-BYTES_PER_PIXEL = {"path_traced": 200, "auto": 200}
+BYTES_PER_PIXEL = {"path_traced": 200, "auto": 200, "progressive": 264}
 BYTES_PER_PIXEL_RAYCAST = 64
 
 

@@ -70,7 +70,8 @@ class Traced(NamedTuple):
 def path_trace(geometry, optics, majorant, lights, camera, window_size, *, samples_per_pixel, block=MAJORANT_BLOCK,
                phase=None, target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
                batch=16, light_clamp=None, rr_depth=RR_DEPTH, backend="cpu", time_limit=None,
-               device_cache=None, equiangular=True, equiangular_radius=None) -> Traced:
+               device_cache=None, equiangular=True, equiangular_radius=None, control=None,
+               base=None) -> Traced:
     """Trace the unbiased reference image of a scene (:meth:`pv_ambient.Renderer.path_trace` is the
     public entry point; it passes its cached arrays).
 
@@ -133,9 +134,19 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     equiangular_radius : float, optional
         World distance from a point light within which ``equiangular`` samples distances and
         directions toward it; default a quarter of the box's diagonal.
+    control : tuple, optional
+        A noise-free ray-cast model as a control variate (the ``progressive`` model,
+        :mod:`pv_ambient._kernels.residual`): its kernel model id and its Lights, LightGrid,
+        Ambient and Diffusion records. The samples are then path samples minus the model's source
+        at their first collision, and ``radiance`` their mean (the residual to add to the model's
+        picture); ``std_error`` is that mean's, ``alpha`` unchanged.
+    base : numpy.ndarray, optional
+        With ``control``: the model's picture (H, W, 3), to which the relative error (and
+        ``target_error``) refers — the residual's own mean is near zero.
     """
     from .._kernels import records as K
     from .._kernels.pathtrace import pathtrace_image
+    from .._kernels.residual import residual_image
     from ..inputs.phase import as_phase
 
     cam, size = camera, window_size
@@ -168,12 +179,17 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     n = 0
     rel = float("inf")
     if geom.is_empty:
-        sum_rad[:] = bg * spp
-        sum_sq[:] = bg * bg * spp
+        if control is None:  # a control variate sees the same background: its residual is 0
+            sum_rad[:] = bg * spp
+            sum_sq[:] = bg * bg * spp
         n = spp
     else:
         args = (K.view_of(cam, size, geom), K.medium_of(optics, majorant, block),
                 K.lights_of(pack_lights(lights), ph, light_clamp * light_clamp), K.Paths(bg, depth, rr_depth, seed, int(eq), majorant, eq_radius))
+        kernel = pathtrace_image
+        if control is not None:
+            args = args + tuple(control)
+            kernel = residual_image
         bar = None
         sums = None
         if backend == "cuda":
@@ -199,7 +215,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
                             break
                         s1 = min(s1, n + fit)
                 if sums is None:
-                    pathtrace_image(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
+                    kernel(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
                 else:
                     bk.pathtrace(device_cache, args, n, s1, sums)
                 if bar is not None:
@@ -209,7 +225,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
                     if sums is not None:
                         sums.download(sum_rad, sum_sq, sum_hit)
                     mean, se = _moments(sum_rad, sum_sq, n)
-                    rel = relative_error(mean, se, sum_hit)
+                    rel = relative_error(mean if base is None else mean + base, se, sum_hit)
                     if rel <= target:
                         break
         finally:
@@ -220,12 +236,12 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     mean, se = _moments(sum_rad, sum_sq, n)
     alpha = sum_hit / n
     if target is None or not np.isfinite(rel):
-        rel = relative_error(mean, se, alpha)
+        rel = relative_error(mean if base is None else mean + base, se, alpha)
     meta = {"model": "path_traced", "spp": n, "time": time.perf_counter() - t_start, "seed": seed,
             "max_depth": max_depth, "target_error": target, "relative_error": rel, "window_size": size,
             "phase": repr(ph), "lights": len(lights), "background": bg.tolist(),
             "light_clamp": light_clamp, "majorant_block": block, "rr_depth": rr_depth, "batch": batch,
-            "time_limit": limit, "equiangular": eq, "equiangular_radius": eq_radius, "backend": backend, "device_memory": device_cache.nbytes if backend == "cuda" else 0}
+            "time_limit": limit, "equiangular": eq, "equiangular_radius": eq_radius, "control_variate": control is not None, "backend": backend, "device_memory": device_cache.nbytes if backend == "cuda" else 0}
     return Traced(mean.astype(np.float32), alpha.astype(np.float32), se.astype(np.float32), meta)
 
 

@@ -1,0 +1,212 @@
+"""The ``progressive`` model on the camera-move axis (docs/progressive.rst): its error after each
+budget against every other model's, on the six scenes of the trade and of the diffusion floor.
+
+For each scene (benchmarks/scenes.py: supernova, cloud, ct_phantom, smoke_plume, marschner_lobb,
+cloud_sun) at 64×64 pixels and 64³ data points, against the cached ``path_traced`` reference of
+benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when the cache is stale):
+
+* the time unit: VTK's ``fixed_point`` emission–absorption frame of the same view (median of
+  ``--repeats``, as benchmarks/trade.py measures it);
+* every model's *camera-move* frames (the view-independent stages — light volumes, diffusion
+  solves, bakes — cached, as after a camera move): the noise-free models (single scattering,
+  ambient scattering, diffusion plain / flux-limited / with 4 transport sweeps) once each;
+  ``path_traced`` and ``progressive`` (base: diffusion, its default at quality "balanced"; and
+  ``progressive sweeps``: base diffusion with 4 transport sweeps + flux limiting, its default at
+  "accurate") at 1, 2, 4, … ``--max-spp`` samples per pixel (``progressive`` also at 0: its first
+  frame, the base model's picture);
+  time: median of ``--repeats`` renders, error: the 4×4-block relative RMSE
+  (:func:`pv_ambient.metrics.block_relative_rmse`) with a 7×7 window at each light's projection
+  masked, one seed per sample count;
+* per budget B (in VTK frames: 3, 5, 10, 20, 50, 100), each model's error at B: the error of its
+  most expensive frame that takes at most B — the picture a user has after that time (a model with
+  no frame within B has none); printed per scene with ``*`` on the lowest, and whether each
+  ``progressive`` row is at or below every other model (the other ``progressive`` row excluded);
+* ``progressive``'s bias at ``--max-spp``: the relative error of its image mean against the
+  reference's, with its standard error from the per-pixel standard errors (and the same for
+  ``path_traced``).
+
+The path tracer's denoised curve (``denoise=True``) is measured when ``pyoidn`` is installed and
+reported as absent otherwise.
+
+Writes ``benchmarks/results/progressive.txt`` (the table; first line the command) and
+``progressive.png`` (error against camera-move time per scene, the budgets shaded) unless
+``--out`` names another directory. Usage::
+
+    python benchmarks/progressive.py [--scenes NAME ...] [--max-spp 256] [--repeats 3] [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+import pv_ambient as pa
+import scenes as scene_registry
+from pv_ambient import metrics
+from trade import vtk_time
+
+SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
+BUDGETS = (3, 5, 10, 20, 50, 100)
+NOISE_FREE = (
+    ("single_scattering", "single_scattering", {}),
+    ("AS", "ambient_scattering", {}),
+    ("diffusion", "diffusion", {}),
+    ("diffusion FL", "diffusion", {"flux_limited": True}),
+    ("diffusion 4 sweeps+FL", "diffusion", {"flux_limited": True, "sweep_orders": 4}),
+)
+
+
+def have_oidn() -> bool:
+    from pv_ambient.stages.denoise import available
+
+    return available()
+
+
+def timed(r, cam, size, g, model, opts, repeats):
+    """The camera-move frame of ``model``: the scored render at ``cam`` (it warms the view-independent
+    caches), then renders from ``repeats`` cameras orbited by 1°, 2°, … (a camera move: nothing
+    view-dependent is reused) are timed; returns the scored image and their median time."""
+    res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False, **opts)
+    times = []
+    for k in range(repeats):
+        c = nf.orbit(cam, 1.0 + k)
+        t = time.perf_counter()
+        r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
+        times.append(time.perf_counter() - t)
+    return res, float(np.median(times))
+
+
+def spp_ladder(max_spp, start=1):
+    out = [0] if start == 0 else []
+    s = 1
+    while s <= max_spp:
+        out.append(s)
+        s *= 2
+    return out
+
+
+def best_within(points, budget):
+    """The error of the model's picture after ``budget``: that of its most expensive frame (most
+    samples) within the budget — what a user sees once that much time has passed (None: no frame
+    fits). The progressive model's later frames are not replaced by its earlier, lower-error ones."""
+    within = [(t, e) for t, e in points if t <= budget]
+    return max(within)[1] if within else None
+
+
+def mean_bias(img, se, ref, mask):
+    """Relative error of the image mean against the reference's, and its standard error (pixels independent)."""
+    m = mask[..., None] & np.ones(3, bool)
+    ref_mean = float(np.mean(ref[m]))
+    bias = float(np.mean(img[m])) / ref_mean - 1.0
+    err = float(np.sqrt(np.sum(se[m].astype(np.float64) ** 2)) / m.sum()) / ref_mean
+    return bias, err
+
+
+def run_scene(name, n, size, max_spp, repeats, log):
+    grid, tf, lights, g, cam = scene_registry.scene(name, n)
+    r = pa.Renderer(grid, transfer_function=tf, lights=lights)
+    mask = metrics.light_mask(size[::-1], cam, size, lights)
+    ref, info, how = nf.reference(name, r, lights, g, cam, mask, False, size)
+    step = r.default_step()
+    unit = vtk_time(grid, r, cam, size, step, max(5, repeats))
+    log(f"\n{name}: {scene_registry.DESCRIPTIONS[name]}")
+    log(f"  reference ({how}): {info['spp']} spp, relative error {info['relative_error']:.4f}, block noise "
+        f"{info['block_noise']:.4f}; VTK frame {unit * 1e3:.2f} ms")
+    curves = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unconverged solves etc.: benchmarks/noise_free.py prints them
+        for label, model, opts in NOISE_FREE:
+            res, t = timed(r, cam, size, g, model, opts, repeats)
+            curves[label] = [(t / unit, metrics.block_relative_rmse(res.radiance, ref, mask))]
+        pt_models = [("path_traced", "path_traced", {}, 1), ("progressive", "progressive", {}, 0),
+                     ("progressive sweeps", "progressive", {"flux_limited": True, "sweep_orders": 4}, 0)]
+        if have_oidn():
+            pt_models.insert(1, ("path_traced+OIDN", "path_traced", {"denoise": True}, 1))
+        final = {}
+        for label, model, opts, start in pt_models:
+            pts = []
+            for spp in spp_ladder(max_spp, start):
+                o = dict(opts, samples_per_pixel=spp, seed=1000 + spp)
+                res, t = timed(r, cam, size, g, model, o, repeats)
+                pts.append((t / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
+                final[label] = res
+            curves[label] = pts
+    for label in ("path_traced", "progressive", "progressive sweeps"):
+        res = final[label]
+        b, e = mean_bias(res.radiance, res.std_error, ref, mask)
+        log(f"  {label} at {res.metadata['spp']} spp: bias of the mean {b:+.4f} ± {e:.4f} (1 s.e.)")
+    log("  curves (time in VTK frames : block error):")
+    for label, pts in curves.items():
+        log(f"    {label:22s} " + "  ".join(f"{t:.3g}:{e:.3f}" for t, e in pts))
+    log(f"  error at budget (VTK frames; * lowest; — none within the budget):")
+    log(f"    {'model':22s} " + " ".join(f"{b:>8d}" for b in BUDGETS))
+    table = {label: [best_within(pts, b) for b in BUDGETS] for label, pts in curves.items()}
+    lows = [min(v[i] for v in table.values() if v[i] is not None) for i in range(len(BUDGETS))]
+    for label, vals in table.items():
+        cells = [("       —" if v is None else f"{v:7.3f}{'*' if v == lows[i] else ' '}") for i, v in enumerate(vals)]
+        log(f"    {label:22s} " + " ".join(cells))
+    ok = {}
+    for row in ("progressive", "progressive sweeps"):
+        ok[row] = []
+        for i, b in enumerate(BUDGETS):
+            p = table[row][i]
+            others = [v[i] for k, v in table.items() if not k.startswith("progressive") and v[i] is not None]
+            ok[row].append(p is not None and all(p <= o for o in others))
+        log(f"    {row} at or below every other model: "
+            + " ".join(f"{b}:{'yes' if o else 'NO'}" for b, o in zip(BUDGETS, ok[row])))
+    return dict(name=name, curves=curves, ok=ok, unit=unit)
+
+
+def plot(rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 3, figsize=(13.5, 8.0), squeeze=False)
+    for ax, row in zip(axes.flat, rows):
+        for label, pts in row["curves"].items():
+            x = [max(t, 1e-2) for t, _ in pts]
+            y = [e for _, e in pts]
+            style = "-o" if len(pts) > 1 else "s"
+            ax.loglog(x, y, style, label=label, ms=4, lw=2.2 if label == "progressive" else 1.0)
+        ax.axvspan(BUDGETS[0], BUDGETS[-1], color="0.92", zorder=0)
+        ax.set_title(f"{row['name']}")
+        ax.set_xlabel("camera-move time / VTK EA frame")
+        ax.set_ylabel("4×4-block relative RMSE")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    ap.add_argument("--max-spp", type=int, default=256)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--out", default=None, help="directory of progressive.txt/.png (default benchmarks/results)")
+    args = ap.parse_args(argv)
+    out = Path(args.out) if args.out else nf.RESULTS
+    log = nf.Log(out / "progressive.txt", "python benchmarks/progressive.py " + " ".join(sys.argv[1:] if argv is None
+                                                                                          else argv))
+    log(f"pv_ambient at {nf._commit()}; {nf.SIZE[0]}×{nf.SIZE[1]} pixels, {nf.N}³ data points, quality 'balanced'; "
+        f"denoised path tracer: {'measured' if have_oidn() else 'not measured (pyoidn not installed)'}")
+    nf.warm_up(args.scenes[0])
+    rows = [run_scene(name, nf.N, nf.SIZE, args.max_spp, args.repeats, log) for name in args.scenes]
+    for which in ("progressive", "progressive sweeps"):
+        log(f"\nsummary: {which} at or below every other model's error at each budget (VTK frames)")
+        for b_i, b in enumerate(BUDGETS):
+            good = [row["name"] for row in rows if row["ok"][which][b_i]]
+            log(f"  {b:>4d}: {len(good)} of {len(rows)} scenes" + (f" ({', '.join(good)})" if good else ""))
+    plot(rows, out / "progressive.png")
+
+
+if __name__ == "__main__":
+    main()
