@@ -147,7 +147,7 @@ def run_scene(name, n, size, max_spp, repeats, log):
     log(f"  error at budget (VTK frames; * lowest; — none within the budget):")
     log(f"    {'model':22s} " + " ".join(f"{b:>8d}" for b in BUDGETS))
     table = {label: [best_within(pts, b) for b in BUDGETS] for label, pts in curves.items()}
-    lows = [min(v[i] for v in table.values() if v[i] is not None) for i in range(len(BUDGETS))]
+    lows = [min((v[i] for v in table.values() if v[i] is not None), default=None) for i in range(len(BUDGETS))]
     for label, vals in table.items():
         cells = [("       —" if v is None else f"{v:7.3f}{'*' if v == lows[i] else ' '}") for i, v in enumerate(vals)]
         log(f"    {label:22s} " + " ".join(cells))

@@ -215,6 +215,11 @@ class Renderer(SceneStages):
               (:func:`pv_ambient.stages.reference.path_trace`); ``samples_per_pixel`` (the
               preset's: 16 / 64 / 256), ``target_error`` (None; a warning gives the error reached
               when the cap comes first), ``max_depth`` (None), ``denoise`` (False);
+            * ``"progressive"`` — lit: the noise-free ``base_model``'s picture ("diffusion";
+              "single_scattering", "ambient_scattering") refined by residual path samples that
+              use it as a control variate (docs/progressive.rst): noise-free at
+              ``samples_per_pixel=0``, the path tracer's answer as samples accumulate; the base's
+              options, ``samples_per_pixel``, ``target_error``, ``max_depth``;
             * ``"auto"`` — lit; ``time_budget`` (None).
 
             An option given to a model that does not use it earns a warning. ``auto`` picks the
@@ -698,7 +703,8 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
         ``table_quality`` = the preset's), ``"diffusion"`` (``flux_limited`` = False,
         ``sweep_orders`` = 0),
         ``"path_traced"`` (``samples_per_pixel`` = 16 / 64 / 256 by ``quality``,
-        ``target_error`` = None, ``max_depth`` = None, ``denoise`` = False) or ``"auto"``
+        ``target_error`` = None, ``max_depth`` = None, ``denoise`` = False), ``"progressive"``
+        (``base_model`` = "diffusion", refined by residual path samples; docs/progressive.rst) or ``"auto"``
         (``time_budget`` = None; rules in :meth:`Renderer.render`). The lit models also take
         ``phase`` (isotropic) and ``light_resolution`` (the preset's). docs/models.rst
         describes each; an option the chosen model does not use earns a warning.
