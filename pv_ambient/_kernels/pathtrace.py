@@ -397,6 +397,18 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
     return lr, lg, lb, hit
 
 
+@scalar(inline=True)
+def add_sample(sum_rad, sum_sq, sum_hit, j, i, r, g, b, h):
+    """Add one sample (rgb radiance, hit indicator) of pixel (i, j) to the float64 sums Σx, Σx², Σhit."""
+    sum_rad[j, i, 0] += r
+    sum_rad[j, i, 1] += g
+    sum_rad[j, i, 2] += b
+    sum_sq[j, i, 0] += r * r
+    sum_sq[j, i, 1] += g * g
+    sum_sq[j, i, 2] += b * b
+    sum_hit[j, i] += h
+
+
 @scalar
 def pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, sum_hit):
     """Add samples ``[s0, s1)`` of pixel (i, j) to the sums, in order (the work of one thread of
@@ -405,13 +417,7 @@ def pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, 
     pixel = j * W + i
     for s in range(s0, s1):
         r, gg, b, h = trace_path(view, medium, lights, paths, i, j, W, H, pixel, s)
-        sum_rad[j, i, 0] += r
-        sum_rad[j, i, 1] += gg
-        sum_rad[j, i, 2] += b
-        sum_sq[j, i, 0] += r * r
-        sum_sq[j, i, 1] += gg * gg
-        sum_sq[j, i, 2] += b * b
-        sum_hit[j, i] += h
+        add_sample(sum_rad, sum_sq, sum_hit, j, i, r, gg, b, h)
 
 
 @driver

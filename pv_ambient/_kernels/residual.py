@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .pathtrace import trace_path
+from .pathtrace import add_sample, trace_path
 from .raycast import lit_source, medium_albedo_emission
 from .rng import key
 from .tracking import delta_track
@@ -72,16 +72,7 @@ def residual_pixel(view, medium, lights, paths, cmodel, clights, cgrid, cambient
         r, gg, b, h = trace_path(view, medium, lights, paths, i, j, W, H, pixel, s)
         cr, cg, cb = control_sample(cmodel, view, medium, clights, cgrid, cambient, cdiffusion, paths.bg, paths.seed,
                                     i, j, W, H, pixel, s)
-        r -= cr
-        gg -= cg
-        b -= cb
-        sum_rad[j, i, 0] += r
-        sum_rad[j, i, 1] += gg
-        sum_rad[j, i, 2] += b
-        sum_sq[j, i, 0] += r * r
-        sum_sq[j, i, 1] += gg * gg
-        sum_sq[j, i, 2] += b * b
-        sum_hit[j, i] += h
+        add_sample(sum_rad, sum_sq, sum_hit, j, i, r - cr, gg - cg, b - cb, h)
 
 
 @driver
