@@ -9,11 +9,13 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   ``--repeats``, as benchmarks/trade.py measures it);
 * every model's *camera-move* frames (the view-independent stages — light volumes, diffusion
   solves, bakes — cached, as after a camera move): the noise-free models (single scattering,
-  ambient scattering, diffusion plain / flux-limited / with 4 transport sweeps) once each;
-  ``path_traced`` and ``progressive`` (base: diffusion, its default at quality "balanced"; and
-  ``progressive sweeps``: base diffusion with 4 transport sweeps + flux limiting, its default at
-  "accurate") at 1, 2, 4, … ``--max-spp`` samples per pixel (``progressive`` also at 0: its first
-  frame, the base model's picture);
+  ambient scattering, diffusion plain / flux-limited / with 4 transport sweeps) once each, and
+  each also as its *drag frame* in interactive mode (half the window per axis, twice the ray
+  step, shown on the full-size plane: upsampled linearly, as the texture is); ``path_traced`` (and
+  ``path_traced+OIDN``) at 1, 2, 4, … ``--max-spp`` samples per pixel; ``progressive`` (its
+  default base: diffusion with 4 transport sweeps and flux limiting) and ``progressive, diffusion
+  base`` (plain diffusion) as a user sees them after a camera move: the drag frame, then the
+  resting frames at 0, 1, 2, 4, … samples, each timed after the drag frame (its time added);
   time: median of ``--repeats`` renders, error: the 4×4-block relative RMSE
   (:func:`pv_ambient.metrics.block_relative_rmse`) with a 7×7 window at each light's projection
   masked, one seed per sample count;
@@ -21,9 +23,10 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   most expensive frame that takes at most B — the picture a user has after that time (a model with
   no frame within B has none); printed per scene with ``*`` on the lowest, and whether each
   ``progressive`` row is at or below every other model (the other ``progressive`` row excluded);
-* ``progressive``'s bias at ``--max-spp``: the relative error of its image mean against the
-  reference's, with its standard error from the per-pixel standard errors (and the same for
-  ``path_traced``).
+* the bias at ``--max-spp``: the relative error of the image mean against the reference's, with
+  its standard error from the per-pixel standard errors, for ``path_traced`` and each
+  ``progressive`` row — its default (thresholded) picture and its unbiased one
+  (``unbiased=True``, same samples).
 
 The path tracer's denoised curve (``denoise=True``) is measured when ``pyoidn`` is installed and
 reported as absent otherwise.
@@ -53,6 +56,7 @@ from trade import vtk_time
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 BUDGETS = (3, 5, 10, 20, 50, 100)
+PROGRESSIVE = ("progressive", "progressive, diffusion base")
 NOISE_FREE = (
     ("single_scattering", "single_scattering", {}),
     ("AS", "ambient_scattering", {}),
@@ -80,6 +84,22 @@ def timed(r, cam, size, g, model, opts, repeats):
         r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
         times.append(time.perf_counter() - t)
     return res, float(np.median(times))
+
+
+def preview(r, cam, size, g, model, opts, repeats):
+    """The model's drag frame in interactive mode (``add_ambient_volume``'s defaults while the
+    camera moves): half the window per axis and twice the ray step; shown on the full-size plane
+    with linear texture interpolation — here the same upsampling by ``scipy.ndimage.zoom``. Returns
+    the full-size image and the median time of the half-size render (the upsampling is the
+    texture's, not counted)."""
+    from scipy import ndimage
+
+    half = (max(1, size[0] // 2), max(1, size[1] // 2))
+    o = dict(opts, step=2.0 * r.default_step())
+    res, t = timed(r, cam, half, g, model, o, repeats)
+    f = (size[1] / half[1], size[0] / half[0], 1)
+    img = ndimage.zoom(res.radiance.astype(np.float64), f, order=1, grid_mode=True, mode="nearest")
+    return img, t
 
 
 def spp_ladder(max_spp, start=1):
@@ -122,37 +142,46 @@ def run_scene(name, n, size, max_spp, repeats, log):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unconverged solves etc.: benchmarks/noise_free.py prints them
         for label, model, opts in NOISE_FREE:
+            img, tp = preview(r, cam, size, g, model, opts, repeats)
             res, t = timed(r, cam, size, g, model, opts, repeats)
-            curves[label] = [(t / unit, metrics.block_relative_rmse(res.radiance, ref, mask))]
+            curves[label] = [(tp / unit, metrics.block_relative_rmse(img, ref, mask)),
+                             (t / unit, metrics.block_relative_rmse(res.radiance, ref, mask))]
         pt_models = [("path_traced", "path_traced", {}, 1), ("progressive", "progressive", {}, 0),
-                     ("progressive sweeps", "progressive", {"flux_limited": True, "sweep_orders": 4}, 0)]
+                     ("progressive, diffusion base", "progressive", {"flux_limited": False, "sweep_orders": 0}, 0)]
         if have_oidn():
             pt_models.insert(1, ("path_traced+OIDN", "path_traced", {"denoise": True}, 1))
         final = {}
         for label, model, opts, start in pt_models:
-            pts = []
+            pts, t0 = [], 0.0
+            if model == "progressive":  # its drag frame first, then the resting frames after it
+                img, t0 = preview(r, cam, size, g, model, dict(opts, samples_per_pixel=0), repeats)
+                pts.append((t0 / unit, metrics.block_relative_rmse(img, ref, mask)))
             for spp in spp_ladder(max_spp, start):
                 o = dict(opts, samples_per_pixel=spp, seed=1000 + spp)
                 res, t = timed(r, cam, size, g, model, o, repeats)
-                pts.append((t / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
+                pts.append(((t0 + t) / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
                 final[label] = res
+            if model == "progressive":
+                res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False,
+                               samples_per_pixel=max_spp, seed=1000 + max_spp, unbiased=True, **opts)
+                final[label + " (unbiased)"] = res
             curves[label] = pts
-    for label in ("path_traced", "progressive", "progressive sweeps"):
+    for label in final:
         res = final[label]
         b, e = mean_bias(res.radiance, res.std_error, ref, mask)
         log(f"  {label} at {res.metadata['spp']} spp: bias of the mean {b:+.4f} ± {e:.4f} (1 s.e.)")
     log("  curves (time in VTK frames : block error):")
     for label, pts in curves.items():
-        log(f"    {label:22s} " + "  ".join(f"{t:.3g}:{e:.3f}" for t, e in pts))
+        log(f"    {label:28s} " + "  ".join(f"{t:.3g}:{e:.3f}" for t, e in pts))
     log(f"  error at budget (VTK frames; * lowest; — none within the budget):")
-    log(f"    {'model':22s} " + " ".join(f"{b:>8d}" for b in BUDGETS))
+    log(f"    {'model':28s} " + " ".join(f"{b:>8d}" for b in BUDGETS))
     table = {label: [best_within(pts, b) for b in BUDGETS] for label, pts in curves.items()}
     lows = [min((v[i] for v in table.values() if v[i] is not None), default=None) for i in range(len(BUDGETS))]
     for label, vals in table.items():
         cells = [("       —" if v is None else f"{v:7.3f}{'*' if v == lows[i] else ' '}") for i, v in enumerate(vals)]
-        log(f"    {label:22s} " + " ".join(cells))
+        log(f"    {label:28s} " + " ".join(cells))
     ok = {}
-    for row in ("progressive", "progressive sweeps"):
+    for row in PROGRESSIVE:
         ok[row] = []
         for i, b in enumerate(BUDGETS):
             p = table[row][i]
@@ -200,7 +229,7 @@ def main(argv=None):
         f"denoised path tracer: {'measured' if have_oidn() else 'not measured (pyoidn not installed)'}")
     nf.warm_up(args.scenes[0])
     rows = [run_scene(name, nf.N, nf.SIZE, args.max_spp, args.repeats, log) for name in args.scenes]
-    for which in ("progressive", "progressive sweeps"):
+    for which in PROGRESSIVE:
         log(f"\nsummary: {which} at or below every other model's error at each budget (VTK frames)")
         for b_i, b in enumerate(BUDGETS):
             good = [row["name"] for row in rows if row["ok"][which][b_i]]

@@ -44,24 +44,28 @@ def test_no_scattering_residual_is_exactly_zero():
 
 def test_zero_samples_is_the_base_picture():
     r, g = _cloud()
-    base = r.render(window_size=SIZE, model="diffusion", phase=g)
+    # the default base at quality "balanced": diffusion with the transport sweeps and flux limiting
+    base = r.render(window_size=SIZE, model="diffusion", phase=g, flux_limited=True, sweep_orders=4)
     res = r.render(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=0)
     np.testing.assert_array_equal(res.radiance, base.radiance)
     np.testing.assert_array_equal(res.alpha, base.alpha)
     assert res.metadata["spp"] == 0 and res.metadata["base_model"] == "diffusion"
+    plain = r.render(window_size=SIZE, model="diffusion", phase=g, quality="preview")
+    res = r.render(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=0, quality="preview")
+    np.testing.assert_array_equal(res.radiance, plain.radiance)  # "preview": plain diffusion
 
 
 @pytest.mark.parametrize("scene", [_cloud, _lit_inside])
 @pytest.mark.parametrize("base", ["single_scattering", "diffusion"])
 def test_converges_to_the_path_traced_answer(scene, base):
-    """The progressive picture and an independent path-traced one agree per pixel: z-scores of their
+    """The unbiased progressive picture (``unbiased=True``) and an independent path-traced one agree per pixel: z-scores of their
     difference (standard errors of both) beyond 3.29 (two-sided 0.1 %) in at most 3 of the 240
     pixel channels — under agreement the count is Poisson with mean 0.24, P(≥ 4) ≈ 1.3e-4 — and the
     image means within 3 standard errors plus 1 % (the march's quadrature bias is below it,
     docs/progressive.rst)."""
     r, g = scene()
     p = r.render(window_size=SIZE, model="progressive", base_model=base, phase=g, quality="accurate",
-                 samples_per_pixel=512, seed=3)
+                 samples_per_pixel=512, seed=3, unbiased=True)
     q = r.render(window_size=SIZE, model="path_traced", phase=g, quality="accurate", samples_per_pixel=2048, seed=4)
     a, b = p.radiance.astype(np.float64), q.radiance.astype(np.float64)
     se = np.sqrt(p.std_error.astype(np.float64) ** 2 + q.std_error.astype(np.float64) ** 2)
@@ -74,6 +78,30 @@ def test_converges_to_the_path_traced_answer(scene, base):
     assert int(np.sum(np.abs(z) > 3.29)) <= 3, np.sort(np.abs(z).ravel())[-6:]
     se_mean = float(np.sqrt(np.sum(se ** 2))) / se.size
     assert abs(a.mean() - b.mean()) <= 3 * se_mean + 0.01 * b.mean()
+
+
+@pytest.mark.parametrize("scene", [_cloud, _lit_inside])
+def test_default_picture_keeps_the_measurable_correction(scene):
+    """The default picture is the base plus the thresholded correction of the unbiased one
+    (same samples): between the two per pixel where a detail is dropped, equal to the unbiased
+    picture's mean wherever the whole image's correction stands out of its noise (kept together per
+    block, docs/progressive.rst), and within √(2 ln 3) = 1.5 of its standard errors otherwise."""
+    from pv_ambient.rendering.renderer import refined_picture
+    from pv_ambient.stages.refine import universal_threshold
+
+    r, g = scene()
+    kw = dict(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=64, seed=5)
+    p = r.render(**kw)
+    u = r.render(unbiased=True, **kw)
+    base = r.render(**dict(kw, samples_per_pixel=0))
+    assert p.metadata["residual"] == "thresholded" and u.metadata["residual"] == "unbiased"
+    np.testing.assert_array_equal(p.std_error, u.std_error)
+    expect, kept = refined_picture(base.radiance, u.radiance, u.std_error)
+    np.testing.assert_allclose(p.radiance, expect, rtol=1e-6, atol=1e-7)
+    assert p.metadata["kept"] == kept
+    se_mean = float(np.sqrt(np.sum(u.std_error.astype(np.float64) ** 2))) / u.std_error.size
+    gap = abs(float(np.mean(p.radiance, dtype=np.float64)) - float(np.mean(u.radiance, dtype=np.float64)))
+    assert gap <= universal_threshold(3) * se_mean + 1e-6  # the whole image's level: 3 coefficients
 
 
 def test_control_variate_lowers_the_variance_where_the_model_is_close():
@@ -95,5 +123,7 @@ def test_bad_arguments_name_what_was_wrong():
         r.render(window_size=SIZE, model="progressive", ray_end=np.full(SIZE[::-1], np.inf))
     with pytest.raises(ValueError, match="samples_per_pixel"):
         r.render(window_size=SIZE, model="progressive", samples_per_pixel=-1)
+    with pytest.raises(TypeError, match="unbiased"):
+        r.render(window_size=SIZE, model="progressive", unbiased="yes")
     with pytest.warns(UserWarning, match="base_model"):
         r.render(window_size=SIZE, model="diffusion", base_model="diffusion")

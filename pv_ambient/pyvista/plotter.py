@@ -16,7 +16,7 @@ import pyvista as pv
 from ..inputs.camera import Camera
 from ..inputs.validation import check_int, check_real, check_window_size
 from ..rendering.presets import DEFAULT_SPP
-from ..rendering.renderer import Renderer
+from ..rendering.renderer import Renderer, refined_picture
 from ..rendering.request import warn_unused_lights
 from ..rendering.result import RenderResult
 from ..stages.reference import Accumulator
@@ -328,17 +328,20 @@ class AmbientVolume:
         done = 0 if acc is None else acc.samples
         total = int(self.options.get("samples_per_pixel", DEFAULT_SPP))
         n = max(2, min(self.interactive_samples, total - done))
+        extra = {"unbiased": True} if self.model == "progressive" else {}  # averaged first, thresholded after
         res = self._render_volume(cam, size, samples_per_pixel=n, seed=int(self.options.get("seed", 0)) + k,
-                                  target_error=None)
+                                  target_error=None, **extra)
         if acc is None:
             acc = self._accumulator = Accumulator()
             self._refine_view = (cam, size)
         acc.add(res.radiance, res.std_error, res.alpha, samples=n)
-        if acc.passes == 1:
-            res.metadata["passes"] = 1
-            return res
         mean, se, alpha = acc.mean, acc.std_error, acc.alpha
         meta = dict(res.metadata, spp=acc.samples, passes=acc.passes, relative_error=acc.relative_error)
+        if self.model == "progressive" and not self.options.get("unbiased", False):
+            # the mean of all passes so far, its correction kept where it stands out (docs/progressive.rst)
+            base = self._render_volume(cam, size, samples_per_pixel=0).radiance  # the view's cached base
+            mean, meta["kept"] = refined_picture(base, mean, se)
+            meta["residual"] = "thresholded"
         return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
                             metadata=meta, std_error=se.astype(np.float32))
 

@@ -80,7 +80,7 @@ DEFAULT_SPP = QUALITY_PRESETS[DEFAULT_QUALITY]["samples_per_pixel"]
 
 #: Options that belong to particular models (accepted by every render call, used where they apply).
 MODEL_OPTIONS = frozenset({"propagation", "samples_per_pixel", "max_depth", "denoise", "flux_limited",
-                           "sweep_orders", "target_error", "time_budget", "base_model"})
+                           "sweep_orders", "target_error", "time_budget", "base_model", "unbiased"})
 #: The noise-free models ``progressive`` can refine (its ``base_model``; docs/progressive.rst) and its default.
 PROGRESSIVE_BASES = ("single_scattering", "ambient_scattering", "diffusion")
 DEFAULT_PROGRESSIVE_BASE = "diffusion"

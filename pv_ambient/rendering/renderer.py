@@ -24,6 +24,7 @@ from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
 from ..inputs.validation import check_choice, check_int, check_real, check_rgb, check_window_size
 from ..stages.reference import EQ_RADIUS, RR_DEPTH
+from ..stages.refine import threshold_correction
 from .cache import SceneCache
 from .presets import (
     ALL_MODELS,
@@ -215,11 +216,14 @@ class Renderer(SceneStages):
               (:func:`pv_ambient.stages.reference.path_trace`); ``samples_per_pixel`` (the
               preset's: 16 / 64 / 256), ``target_error`` (None; a warning gives the error reached
               when the cap comes first), ``max_depth`` (None), ``denoise`` (False);
-            * ``"progressive"`` — lit: the noise-free ``base_model``'s picture ("diffusion";
+            * ``"progressive"`` — lit: the noise-free ``base_model``'s picture ("diffusion", with
+              4 transport sweeps and flux limiting except at quality "preview";
               "single_scattering", "ambient_scattering") refined by residual path samples that
               use it as a control variate (docs/progressive.rst): noise-free at
-              ``samples_per_pixel=0``, the path tracer's answer as samples accumulate; the base's
-              options, ``samples_per_pixel``, ``target_error``, ``max_depth``;
+              ``samples_per_pixel=0``, then the base plus the part of the samples' correction
+              that stands out of its noise — the path tracer's answer as samples accumulate
+              (``unbiased=True``: the whole correction, unbiased at every count); the base's
+              options, ``samples_per_pixel``, ``target_error``, ``max_depth``, ``unbiased``;
             * ``"auto"`` — lit; ``time_budget`` (None).
 
             An option given to a model that does not use it earns a warning. ``auto`` picks the
@@ -347,9 +351,10 @@ class Renderer(SceneStages):
             budget = check_real(budget, "time_budget", lo=0.0, lo_open=True)
             if model != "auto":
                 raise ValueError(f"time_budget chooses the model: use it with model='auto', not {model!r}")
-        denoise = model_options.get("denoise", False)
-        if denoise not in (True, False):
-            raise TypeError(f"denoise must be True or False, got {denoise!r}")
+        for flag in ("denoise", "unbiased"):
+            value = model_options.get(flag, False)
+            if value not in (True, False):
+                raise TypeError(f"{flag} must be True or False, got {value!r}")
         if "sweep_orders" in model_options:
             check_int(model_options["sweep_orders"], "sweep_orders", lo=0)
         if model in ("path_traced", "progressive") and ray_end is not None:
@@ -591,7 +596,7 @@ class Renderer(SceneStages):
         t_start = time.perf_counter()
         base = options.get("base_model", DEFAULT_PROGRESSIVE_BASE)
         base_options = {k: options[k] for k in ("flux_limited", "sweep_orders") if k in options}
-        if base == "diffusion" and req.quality == "accurate":  # as auto: the sweeps and flux limiting
+        if base == "diffusion" and req.quality != "preview":  # the sweeps and flux limiting, as auto's accurate
             base_options = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS, **base_options}
         cam, size = req.camera, req.window_size
         key = ("progressive_base", base, tuple(sorted(base_options.items())), tuple(self.lights),
@@ -641,7 +646,13 @@ class Renderer(SceneStages):
                              progress_bar=req.progress_bar is True, light_clamp=0.25 * req.step, backend=backend,
                              device_cache=self.device_cache if backend == "cuda" else None,
                              control=(kernel_model, lrec, grec, arec, drec), base=control_image)
-        radiance = (control_image.astype(np.float64) + out.radiance).astype(np.float32)
+        estimate = control_image.astype(np.float64) + out.radiance
+        if options.get("unbiased", False):
+            radiance, kept = estimate, 1.0
+        else:  # the correction where it stands out of its noise (docs/progressive.rst)
+            radiance, kept = refined_picture(nf.radiance, estimate, out.std_error)
+        radiance = radiance.astype(np.float32)
+        meta.update(residual="unbiased" if options.get("unbiased", False) else "thresholded", kept=kept)
         meta.update({k: out.metadata[k] for k in ("spp", "seed", "max_depth", "target_error", "relative_error",
                                                   "light_clamp", "rr_depth", "equiangular")})
         meta.update(time_samples=out.metadata["time"], time_render=time.perf_counter() - t_start - meta["time_prepare"])
@@ -675,6 +686,24 @@ class Renderer(SceneStages):
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
 
+def refined_picture(base, estimate, std_error):
+    """The ``progressive`` model's picture: ``base`` (the noise-free model's) plus the part of the
+    correction ``estimate − base`` that stands out of its noise (``std_error``, the estimate's), by
+    :func:`pv_ambient.stages.refine.threshold_correction` (docs/progressive.rst). Returns the
+    float64 picture and the share of pixel-level details kept.
+
+    >>> import numpy as np
+    >>> base = np.zeros((2, 2, 3))
+    >>> pic, kept = refined_picture(base, base + 0.25, np.zeros((2, 2, 3)))   # exact: kept in full
+    >>> float(pic.mean()), kept
+    (0.25, 1.0)
+    """
+    b = np.asarray(base, dtype=np.float64)
+    corr, kept = threshold_correction(np.asarray(estimate, dtype=np.float64) - b,
+                                      np.asarray(std_error, dtype=np.float64) ** 2)
+    return b + corr, kept
+
+
 def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=None, model="emission_absorption",
            scalars=None, component=None, preference="point", nan_policy="raise", **options) -> RenderResult:
     """Render a volume: the one-call entry point.
@@ -704,7 +733,8 @@ def render(grid, *, transfer_function=None, camera=None, window_size=None, light
         ``sweep_orders`` = 0),
         ``"path_traced"`` (``samples_per_pixel`` = 16 / 64 / 256 by ``quality``,
         ``target_error`` = None, ``max_depth`` = None, ``denoise`` = False), ``"progressive"``
-        (``base_model`` = "diffusion", refined by residual path samples; docs/progressive.rst) or ``"auto"``
+        (``base_model`` = "diffusion", refined by residual path samples; ``unbiased`` = False;
+        docs/progressive.rst) or ``"auto"``
         (``time_budget`` = None; rules in :meth:`Renderer.render`). The lit models also take
         ``phase`` (isotropic) and ``light_resolution`` (the preset's). docs/models.rst
         describes each; an option the chosen model does not use earns a warning.

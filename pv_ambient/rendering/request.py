@@ -71,7 +71,7 @@ OPTION_MODELS = {
     "samples_per_pixel": ("path_traced", "progressive"), "target_error": ("path_traced", "progressive"),
     "max_depth": ("path_traced", "progressive"), "denoise": ("path_traced",),
     "flux_limited": ("diffusion", "progressive"), "sweep_orders": ("diffusion", "progressive"),
-    "propagation": ("ambient_scattering", "progressive"), "base_model": ("progressive",),
+    "propagation": ("ambient_scattering", "progressive"), "base_model": ("progressive",), "unbiased": ("progressive",),
     "radius": ("ambient_occlusion", "ambient_scattering", "progressive"), "ambient_radiance": ("ambient_occlusion",),
 }
 #: Bytes per pixel a render holds at its peak (image buffers, float64 sums and their conversion):

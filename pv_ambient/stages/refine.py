@@ -1,0 +1,138 @@
+"""The progressive model's correction, kept where it is measurable (docs/progressive.rst).
+
+The ``progressive`` model's unbiased picture is ``P = N + Δ̂``: the base model's noise-free
+picture ``N`` and a Monte Carlo estimate ``Δ̂`` of the correction ``Δ = L − N`` (the residual
+mean plus the deterministic control-minus-base difference), with per-pixel variance ``v``
+(``std_error²``). Early on ``Δ̂``'s noise is far larger than ``Δ`` itself, and ``P`` is a worse
+picture than ``N``; a bias that is smooth over the image, though, is measured long before a
+single pixel's is. So the correction is split into the levels of a Haar (block-mean) pyramid —
+the whole image's mean, then each 2×2 split of it, down to single pixels — and each level's
+detail is added where it stands out of its own noise:
+
+* level ``K`` (one block, the whole image): its mean ``M`` is kept when ``M² ≥ t²·Var(M)``;
+* every other block ``c`` of level ``k``, child of block ``p`` of level ``k + 1``: its detail
+  ``d = M_c − M_p`` (block means of ``Δ̂``) has variance ``Var(M_c) − 2·Cov(M_c, M_p) +
+  Var(M_p)``, from ``v`` with the pixels independent (they are: each pixel's samples are its
+  own); the details of a parent's (up to four) children are kept *together*, when any of them
+  has ``d² ≥ t²·Var(d)`` — so a kept level never moves its parent's mean, and the picture's mean
+  is the whole image's level (kept or not);
+* ``t = √(2 ln n_k)``, ``n_k`` the number of coefficients of the level (its blocks × channels):
+  the universal threshold of wavelet shrinkage (Donoho & Johnstone 1994) taken level by level,
+  under which a level's pure noise crosses with probability → 0 as the level grows. The pixel
+  level of a 64×64 RGB picture has ``t = 4.3``; the whole image's mean (3 coefficients) ``t =
+  1.5`` — a coarse level's noise is small, and so is the harm of keeping it by mistake, while
+  dropping a real shift of the whole image would leave its bias.
+
+The result is *consistent*, not unbiased at every sample count: as the samples grow every
+variance falls to zero, every non-zero detail is kept and the picture tends to ``P``'s limit,
+the transfer equation's answer; at a finite count a detail is dropped only while it is below
+``t`` of its noise, and the image mean is dropped only while it is below 1.5 of its standard
+error. A pixel whose variance is infinite (fewer than two samples) or NaN keeps nothing of its
+own level. Each pixel's variance is first replaced by the larger of it and its 3×3
+neighbourhood's mean, so that a pixel whose few samples happen to agree (an underestimated
+variance: a heavy-tailed estimator's usual case) does not pass for a measured one.
+
+This module is pure NumPy (the array core: no pyvista).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["universal_threshold", "threshold_correction"]
+
+
+def universal_threshold(n: int) -> float:
+    """``√(2 ln n)``: the threshold (in standard errors) above which one of ``n`` pure-noise
+    Gaussian coefficients is unlikely to rise (probability ≤ 1/√(π ln n) for the largest).
+
+    >>> round(universal_threshold(64 * 64 * 3), 3)
+    4.34
+    """
+    return math.sqrt(2.0 * math.log(max(int(n), 2)))
+
+
+def _pool(a, how):
+    """2×2 blocks of an ``(H, W, C)`` array (odd sizes: the last row/column alone): sum or max."""
+    h, w = a.shape[:2]
+    ph, pw = -(-h // 2), -(-w // 2)
+    fill = 0.0 if how == "sum" else -np.inf
+    out = np.full((2 * ph, 2 * pw) + a.shape[2:], fill, dtype=a.dtype)
+    out[:h, :w] = a
+    out = out.reshape(ph, 2, pw, 2, *a.shape[2:])
+    return out.sum(axis=(1, 3)) if how == "sum" else out.max(axis=(1, 3))
+
+
+def _up(a, shape):
+    """Each block's value on its (up to four) children: the inverse of :func:`_pool`'s layout."""
+    return np.repeat(np.repeat(a, 2, axis=0), 2, axis=1)[: shape[0], : shape[1]]
+
+
+def _neighbourhood_max(v):
+    """``max(v, mean of v over the 3×3 neighbourhood)`` (edge pixels: their in-image neighbours)."""
+    h, w = v.shape[:2]
+    pad = np.pad(v, ((1, 1), (1, 1)) + ((0, 0),) * (v.ndim - 2))
+    one = np.pad(np.ones((h, w)), 1)
+    s = sum(pad[i:i + h, j:j + w] for i in range(3) for j in range(3))
+    cnt = sum(one[i:i + h, j:j + w] for i in range(3) for j in range(3))
+    if v.ndim == 3:
+        cnt = cnt[..., None]
+    return np.maximum(v, s / cnt)
+
+
+def threshold_correction(delta, variance, *, threshold=None):
+    """The correction ``delta`` (an ``(H, W, C)`` estimate whose per-entry variance is
+    ``variance``) with every Haar detail that does not stand out of its noise removed (module
+    docstring). Returns ``(kept, share)``: the float64 correction to add to the base picture and
+    the share of pixel-level detail groups kept (0 to 1; 1 once every pixel's own level is in).
+
+    ``threshold``: in standard errors, one for every level; default: each level's
+    :func:`universal_threshold` of its number of coefficients.
+    A zero variance keeps every non-zero detail (an exact correction is added in full); an
+    infinite one keeps none.
+
+    >>> import numpy as np
+    >>> d = np.full((4, 4, 1), 0.5)
+    >>> float(threshold_correction(d, np.zeros_like(d))[0].mean())     # exact: all of it
+    0.5
+    >>> float(np.abs(threshold_correction(d, np.full_like(d, 1e3))[0]).max())  # lost in its noise
+    0.0
+    """
+    d = np.asarray(delta, dtype=np.float64)
+    v = np.asarray(variance, dtype=np.float64)
+    if d.ndim == 2:
+        out, share = threshold_correction(d[..., None], v[..., None], threshold=threshold)
+        return out[..., 0], share
+    if d.shape != v.shape or d.ndim != 3:
+        raise ValueError(f"delta and variance must be (H, W, C) arrays of one shape, got {d.shape} and {v.shape}")
+
+    def t2(a):  # the level's squared threshold
+        return (universal_threshold(a.size) if threshold is None else float(threshold)) ** 2
+
+    v = np.where(np.isnan(v), np.inf, v)
+    v = _neighbourhood_max(v)
+    # the pyramid of sums: S (of Δ̂), Q (of the variances), n (pixels), level 0 the pixels
+    sums, qs, ns = [d], [v], [np.ones(d.shape[:2] + (1,))]
+    while sums[-1].shape[0] > 1 or sums[-1].shape[1] > 1:
+        sums.append(_pool(sums[-1], "sum"))
+        qs.append(_pool(qs[-1], "sum"))
+        ns.append(_pool(ns[-1], "sum"))
+    with np.errstate(invalid="ignore", over="ignore"):
+        mean_top = sums[-1] / ns[-1]
+        keep = mean_top ** 2 >= t2(mean_top) * qs[-1] / ns[-1] ** 2
+        r = np.where(keep, mean_top, 0.0)
+        share = 1.0
+        for k in range(len(sums) - 2, -1, -1):
+            shape = sums[k].shape
+            mk, np_ = sums[k] / ns[k], _up(ns[k + 1], shape)
+            mp = _up(sums[k + 1], shape) / np_
+            var_d = qs[k] / ns[k] ** 2 - 2.0 * qs[k] / (ns[k] * np_) + _up(qs[k + 1], shape) / np_ ** 2
+            det = mk - mp
+            z_max = _pool(np.where(det ** 2 >= t2(det) * var_d, 1.0, 0.0), "max")  # any child of the parent
+            group = _up(z_max, shape) > 0.0
+            r = _up(r, shape) + np.where(group, det, 0.0)
+            if k == 0:
+                share = float(np.mean(z_max > 0.0))
+    return r, share
