@@ -3,7 +3,7 @@ the trade benchmark's three (supernova shell lit from its centre, forward-scatte
 point light, CT-like phantom with two coloured point lights; 96², 8192 spp or 1 % standard
 error) and three it does not use (smoke plume, Marschner–Lobb lit from its centre, the cloud
 under a directional light seen from the sun's side; 64², 4096 spp or 1 %). The scenes are those
-of ``benchmarks/trade.py`` and ``benchmarks/diffusion_floor.py``, repeated here.
+of ``benchmarks/trade.py`` and ``benchmarks/diffusion_floor.py`` (``benchmarks/scenes.py``).
 
 For each scene and configuration: 4×4-block relative RMSE and relative bias of the image mean
 against the reference (light windows masked, ``metrics.light_mask``), and the first-frame time
@@ -27,7 +27,9 @@ os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
-from pv_ambient import datasets, metrics  # noqa: E402
+from pv_ambient import metrics  # noqa: E402
+
+import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
 
 #: (label, options) of the configurations compared; the last is ``auto``'s with "accurate".
 CONFIGS = [
@@ -40,39 +42,14 @@ CONFIGS = [
 
 
 def scene(name, n=64):
-    """(grid, transfer function, lights, phase g, camera, image size, reference seed, max spp)."""
-    if name == "supernova":
-        g = datasets.supernova(n=n)
-        return (g, pa.TransferFunction(**datasets.suggested_style("supernova"), albedo=0.9),
-                [pa.PointLight((0.0, 0.0, 0.35), intensity=3.0)], 0.0,
-                pa.Camera((0.0, -3.6, 0.6), (0, 0, 0), (0, 0, 1), view_angle=30), 96, 12345, 8192)
-    if name in ("cloud", "cloud_sun"):
-        g = datasets.cloud(n=n)
-        tf = pa.TransferFunction(**{**datasets.suggested_style("cloud"), "density_scale": 8.0}, albedo=0.95)
-        cam = pa.Camera((0.0, -3.6, 0.8), (0, 0, 0), (0, 0, 1), view_angle=30)
-        if name == "cloud":
-            return g, tf, [pa.PointLight((0.4, 0.6, 2.2), intensity=6.0)], 0.6, cam, 96, 12345, 8192
-        return g, tf, [pa.DirectionalLight((0.3, 0.4, -1.0), irradiance=2.0)], 0.6, cam, 64, 99, 4096
-    if name == "ct_phantom":
-        g = datasets.ct_phantom(n=n)
-        return (g, pa.TransferFunction(**datasets.suggested_style("ct_phantom"), albedo=0.8),
-                [pa.PointLight((1.6, -1.2, 0.8), intensity=(5.0, 2.0, 1.0)),
-                 pa.PointLight((-1.6, -1.2, -0.4), intensity=(1.0, 2.0, 5.0))], 0.3,
-                pa.Camera((0.0, -3.6, 0.4), (0, 0, 0), (0, 0, 1), view_angle=30), 96, 12345, 8192)
-    if name == "smoke_plume":
-        g = datasets.smoke_plume(n=n)
-        return (g, pa.TransferFunction(**datasets.suggested_style("smoke_plume"), albedo=0.9),
-                [pa.PointLight((1.2, -0.8, 1.0), intensity=5.0)], 0.3,
-                pa.Camera((0, -3.6, 0.5), (0, 0, 0), (0, 0, 1), view_angle=30), 64, 99, 4096)
-    if name == "marschner_lobb":
-        g = datasets.marschner_lobb(n=n)
-        return (g, pa.TransferFunction(**datasets.suggested_style("marschner_lobb"), albedo=0.9),
-                [pa.PointLight((0.0, 0.0, 0.0), intensity=2.0)], 0.0,
-                pa.Camera((0, -3.6, 1.0), (0, 0, 0), (0, 0, 1), view_angle=30), 64, 99, 4096)
-    raise KeyError(name)
+    """(grid, transfer function, lights, phase g, camera, image size, reference seed, max spp): the
+    scene of benchmarks/scenes.py with its benchmark's image size and reference settings (the
+    trade's: 96², seed 12345, 8192 spp; diffusion_floor.py's: 64², seed 99, 4096 spp)."""
+    size, seed, spp = (96, 12345, 8192) if scene_registry.group_of(name) == "trade" else (64, 99, 4096)
+    return (*scene_registry.scene(name, n), size, seed, spp)
 
 
-SCENES = ("supernova", "cloud", "ct_phantom", "smoke_plume", "marschner_lobb", "cloud_sun")
+SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 
 
 def reference(name, renderer, g, cam, size, seed, spp, cache):

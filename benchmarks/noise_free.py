@@ -24,7 +24,8 @@ For each scene, at 64×64 pixels and 64³ data points:
   does not match (or ``--recompute-refs``) traces it again.
 * every noise-free model at its defaults (``quality="balanced"``): ``single_scattering``,
   ``ambient_scattering`` with ``propagation="beer_lambert"`` (its default) and ``"tube"``,
-  ``diffusion`` plain and flux-limited, and ``model="auto"`` (the model it chose in brackets).
+  ``diffusion`` plain, flux-limited and with 4 transport sweeps + flux limiting (``auto``'s choice
+  at ``quality="accurate"``), and ``model="auto"`` (the model it chose in brackets).
 
 Columns of a scene's table:
 
@@ -94,6 +95,7 @@ MODELS = (
     ("AS tube", "ambient_scattering", {"propagation": "tube"}),
     ("diffusion", "diffusion", {}),
     ("diffusion FL", "diffusion", {"flux_limited": True}),
+    ("diffusion 4 sweeps+FL", "diffusion", {"flux_limited": True, "sweep_orders": 4}),
     ("auto", "auto", {}),
 )
 
@@ -295,13 +297,13 @@ def main(argv=None):
     new = [n for n in names if n in scene_registry.NEW]
     log(f"\nsummary over {len(old)} old scene(s) ({', '.join(old) or '—'}) and {len(new)} new "
         f"({', '.join(new) or '—'}):")
-    log(f"  {'model':18s} {'worst block old':>15} {'worst block new':>15} {'bias range old':>16} {'bias range new':>16}"
+    log(f"  {'model':22s} {'worst block old':>15} {'worst block new':>15} {'bias range old':>16} {'bias range new':>16}"
         f" {'move/SS':>8}")
     for label, _, _ in MODELS:
         sub = [x for x in rows if x["model"] == label]
         o = [x for x in sub if x["scene"] in old]
         w = [x for x in sub if x["scene"] in new]
-        log(f"  {label:18s} {fmt_max([x['block'] for x in o]):>15} {fmt_max([x['block'] for x in w]):>15}"
+        log(f"  {label:22s} {fmt_max([x['block'] for x in o]):>15} {fmt_max([x['block'] for x in w]):>15}"
             f" {fmt_range([x['bias'] for x in o]):>16} {fmt_range([x['bias'] for x in w]):>16}"
             f" {np.median([x['ratio'] for x in sub]):>8.2f}")
     if out is not None:

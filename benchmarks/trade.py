@@ -8,7 +8,9 @@ point light, a CT-like phantom with two coloured point lights):
   printed: it must stay well below the errors it measures);
 * VTK ``fixed_point`` EA of the same TF and camera: the time unit;
 * ``single_scattering`` at each quality preset, ``ambient_scattering`` for both propagation modes
-  and several radii, ``path_traced`` at 1, 2, 4, … spp (no denoiser): first-frame time (all caches
+  and several radii, ``diffusion`` plain, flux-limited and with 4 transport sweeps + flux
+  limiting, ``progressive`` at 0, 16 and 64 samples, ``path_traced`` at 1, 2, 4, … spp (and with
+  the denoiser when ``pyoidn`` is installed): first-frame time (all caches
   cold but Numba compiled) and camera-move time (caches warm), median of ``--repeats``, as ratios
   to the VTK frame; 4×4-block and per-pixel relative RMSE, relative bias of the mean, SSIM, each
   against the reference with a small window around each light's projection masked;
@@ -72,7 +74,11 @@ def configurations(quick):
     cfg = [("single_scattering", q, {"quality": q}) for q in ("preview", "balanced", "accurate")]
     cfg += [("ambient_scattering", q, {"quality": q}) for q in ("preview", "accurate")]  # defaults: BL, r = 8 vx
     cfg += [("diffusion", "plain", {"quality": "balanced"}),
-            ("diffusion", "flux-limited", {"quality": "balanced", "flux_limited": True})]
+            ("diffusion", "flux-limited", {"quality": "balanced", "flux_limited": True}),
+            ("diffusion", "4 sweeps + FL", {"quality": "balanced", "flux_limited": True, "sweep_orders": 4})]
+    # the progressive model (its default base: diffusion with 4 sweeps + FL): the first frame and after samples
+    cfg += [("progressive", f"{spp} spp", {"quality": "balanced", "samples_per_pixel": spp, "seed": 7})
+            for spp in ((0, 64) if quick else (0, 16, 64))]
     radii = (2, 4, 8) if not quick else (8,)
     for prop in ("beer_lambert", "tube"):
         for rv in radii:

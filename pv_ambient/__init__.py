@@ -5,7 +5,7 @@ imports without pyvista or vtk; the PyVista accessor ``grid.ambient`` is registe
 ``pyvista.accessors`` entry point (and here, when pyvista is importable).
 """
 
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 
 from .inputs.camera import Camera
 from .inputs.lights import DirectionalLight, PointLight

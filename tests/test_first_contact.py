@@ -304,12 +304,14 @@ def test_render_result_repr_is_one_short_line():
     assert "\n" not in text and len(text) < 200 and "array" not in text
 
 
-def test_version_is_0_3_0_in_the_package_and_pyproject():
+def test_version_is_0_4_0_in_the_package_and_pyproject():
+    """0.3.0: documented PNG defaults changed; 0.4.0: a new model and command, the path tracer's samples
+    moved (README)."""
     import re
 
     toml = (Path(__file__).resolve().parent.parent / "pyproject.toml").read_text()
-    assert re.search(r'^version = "0\.3\.0"$', toml, re.MULTILINE)
-    assert pa.__version__ == "0.3.0"
+    assert re.search(r'^version = "0\.4\.0"$', toml, re.MULTILINE)
+    assert pa.__version__ == "0.4.0"
 
 
 # -- PyVista habits ------------------------------------------------------------------------------------------

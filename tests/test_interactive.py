@@ -222,7 +222,8 @@ def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
     parts = [r.render(camera=pl.camera, window_size=SIZE, model="progressive", samples_per_pixel=2, seed=s,
                       unbiased=True) for s in range(3)]
     # the passes' mean, its correction over the base thresholded by the standard error of all samples
-    shown, _ = refined_picture(base_p.radiance, np.mean([p.radiance for p in parts], axis=0), vol.volume_result.std_error)
+    shown, _ = refined_picture(base_p.radiance, np.mean([p.radiance for p in parts], axis=0),
+                               vol.volume_result.std_error, samples=6)
     np.testing.assert_allclose(vol.volume_result.radiance, shown, rtol=1e-5, atol=1e-6)
     assert np.all(vol.volume_result.std_error >= 0)
     pl.close()

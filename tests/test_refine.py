@@ -73,3 +73,21 @@ def test_threshold_and_shapes():
     np.testing.assert_array_equal(out, 1.0)
     with pytest.raises(ValueError, match="delta and variance"):
         threshold_correction(np.zeros((4, 4, 3)), np.zeros((4, 4, 1)))
+
+
+def test_few_samples_raise_the_threshold():
+    """A variance estimated from few samples: the threshold is Student's t quantile of the
+    Gaussian one's tail probability. Pure noise whose variance estimates come from 2 samples per
+    pixel (χ² with 1 degree of freedom: often far too small) crosses the Gaussian threshold in
+    1–3 pixel groups of 768 over seeds 0–5 (expected with the true variance: 0.03); told the sample
+    count, in none, and from one sample nothing at all is kept."""
+    rng = np.random.default_rng(4)
+    x = rng.normal(size=(2, 64, 48, 3))  # two samples per pixel, true variance 1
+    mean = x.mean(axis=0)
+    var_of_mean = x.var(axis=0, ddof=1) / 2
+    _, kept_gauss = threshold_correction(mean, var_of_mean)
+    out, kept = threshold_correction(mean, var_of_mean, samples=2)
+    assert kept_gauss >= 1 / 768 and kept == 0.0
+    out, kept = threshold_correction(mean, var_of_mean, samples=1)
+    np.testing.assert_array_equal(out, 0.0)
+    assert threshold_correction(_smooth(), np.zeros_like(_smooth()), samples=1)[0].max() == 0.0

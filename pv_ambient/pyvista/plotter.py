@@ -340,7 +340,7 @@ class AmbientVolume:
         if self.model == "progressive" and not self.options.get("unbiased", False):
             # the mean of all passes so far, its correction kept where it stands out (docs/progressive.rst)
             base = self._render_volume(cam, size, samples_per_pixel=0).radiance  # the view's cached base
-            mean, meta["kept"] = refined_picture(base, mean, se)
+            mean, meta["kept"] = refined_picture(base, mean, se, samples=acc.samples)
             meta["residual"] = "thresholded"
         return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
                             metadata=meta, std_error=se.astype(np.float32))

@@ -650,7 +650,7 @@ class Renderer(SceneStages):
         if options.get("unbiased", False):
             radiance, kept = estimate, 1.0
         else:  # the correction where it stands out of its noise (docs/progressive.rst)
-            radiance, kept = refined_picture(nf.radiance, estimate, out.std_error)
+            radiance, kept = refined_picture(nf.radiance, estimate, out.std_error, samples=out.metadata["spp"])
         radiance = radiance.astype(np.float32)
         meta.update(residual="unbiased" if options.get("unbiased", False) else "thresholded", kept=kept)
         meta.update({k: out.metadata[k] for k in ("spp", "seed", "max_depth", "target_error", "relative_error",
@@ -686,11 +686,11 @@ class Renderer(SceneStages):
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
 
-def refined_picture(base, estimate, std_error):
+def refined_picture(base, estimate, std_error, samples=None):
     """The ``progressive`` model's picture: ``base`` (the noise-free model's) plus the part of the
-    correction ``estimate − base`` that stands out of its noise (``std_error``, the estimate's), by
-    :func:`pv_ambient.stages.refine.threshold_correction` (docs/progressive.rst). Returns the
-    float64 picture and the share of pixel-level details kept.
+    correction ``estimate − base`` that stands out of its noise (``std_error``, the estimate's,
+    from ``samples`` per pixel), by :func:`pv_ambient.stages.refine.threshold_correction`
+    (docs/progressive.rst). Returns the float64 picture and the share of pixel-level details kept.
 
     >>> import numpy as np
     >>> base = np.zeros((2, 2, 3))
@@ -700,7 +700,7 @@ def refined_picture(base, estimate, std_error):
     """
     b = np.asarray(base, dtype=np.float64)
     corr, kept = threshold_correction(np.asarray(estimate, dtype=np.float64) - b,
-                                      np.asarray(std_error, dtype=np.float64) ** 2)
+                                      np.asarray(std_error, dtype=np.float64) ** 2, samples=samples)
     return b + corr, kept
 
 

@@ -16,12 +16,17 @@ detail is added where it stands out of its own noise:
   own); the details of a parent's (up to four) children are kept *together*, when any of them
   has ``d² ≥ t²·Var(d)`` — so a kept level never moves its parent's mean, and the picture's mean
   is the whole image's level (kept or not);
-* ``t = √(2 ln n_k)``, ``n_k`` the number of coefficients of the level (its blocks × channels):
-  the universal threshold of wavelet shrinkage (Donoho & Johnstone 1994) taken level by level,
-  under which a level's pure noise crosses with probability → 0 as the level grows. The pixel
-  level of a 64×64 RGB picture has ``t = 4.3``; the whole image's mean (3 coefficients) ``t =
-  1.5`` — a coarse level's noise is small, and so is the harm of keeping it by mistake, while
-  dropping a real shift of the whole image would leave its bias.
+* ``t = √(2 ln n)``, ``n`` the number of coefficients (pixels × channels): the universal
+  threshold of wavelet shrinkage (Donoho & Johnstone 1994), under which pure noise crosses with
+  probability → 0 as the image grows — 4.3 for a 64×64 RGB picture. A detail kept by mistake
+  adds the same squared error at every level (a block's noise falls as its pixels grow), so one
+  threshold serves all of them. The whole image's mean is the exception: ``t = √(2 ln C)`` for
+  its ``C`` channels (1.5 for RGB) — keeping it by mistake costs no more than any detail, while
+  dropping a real shift of the whole image would leave that shift as the picture's bias.
+* The variances are estimated from the samples themselves: with ``samples`` per pixel given,
+  ``t`` becomes Student's t quantile of the same tail probability, with the degrees of freedom
+  of the block's pooled estimate, ``(samples − 1)·(2^k + 2)²`` at level ``k`` (its pixels and
+  their 3×3 neighbours) — a pixel whose two samples agree has not shown a small variance.
 
 The result is *consistent*, not unbiased at every sample count: as the samples grow every
 variance falls to zero, every non-zero detail is kept and the picture tends to ``P``'s limit,
@@ -82,14 +87,18 @@ def _neighbourhood_max(v):
     return np.maximum(v, s / cnt)
 
 
-def threshold_correction(delta, variance, *, threshold=None):
+def threshold_correction(delta, variance, *, threshold=None, samples=None):
     """The correction ``delta`` (an ``(H, W, C)`` estimate whose per-entry variance is
     ``variance``) with every Haar detail that does not stand out of its noise removed (module
     docstring). Returns ``(kept, share)``: the float64 correction to add to the base picture and
     the share of pixel-level detail groups kept (0 to 1; 1 once every pixel's own level is in).
 
-    ``threshold``: in standard errors, one for every level; default: each level's
-    :func:`universal_threshold` of its number of coefficients.
+    ``threshold``: in standard errors, one for every level; default: :func:`universal_threshold`
+    of ``delta.size`` for the details, of the channel count for the whole image's mean.
+    ``samples``: the samples per pixel ``variance`` was estimated from (None: known exactly); a
+    variance estimated from few samples is itself uncertain, and the threshold becomes Student's
+    t quantile of the same tail probability (module docstring) — no detail is kept from one
+    sample.
     A zero variance keeps every non-zero detail (an exact correction is added in full); an
     infinite one keeps none.
 
@@ -103,13 +112,26 @@ def threshold_correction(delta, variance, *, threshold=None):
     d = np.asarray(delta, dtype=np.float64)
     v = np.asarray(variance, dtype=np.float64)
     if d.ndim == 2:
-        out, share = threshold_correction(d[..., None], v[..., None], threshold=threshold)
+        out, share = threshold_correction(d[..., None], v[..., None], threshold=threshold, samples=samples)
         return out[..., 0], share
     if d.shape != v.shape or d.ndim != 3:
         raise ValueError(f"delta and variance must be (H, W, C) arrays of one shape, got {d.shape} and {v.shape}")
 
-    def t2(a):  # the level's squared threshold
-        return (universal_threshold(a.size) if threshold is None else float(threshold)) ** 2
+    t_detail = universal_threshold(d.size) if threshold is None else float(threshold)
+    t_mean = universal_threshold(d.shape[2]) if threshold is None else float(threshold)
+
+    def t2(t, k):
+        """The squared threshold ``t`` for a variance estimated from ``samples`` per pixel over a
+        level-``k`` block (pooled over its pixels and their 3×3 neighbours): Student's t quantile
+        with the Gaussian ``t``'s tail probability (Welch–Satterthwaite degrees of freedom)."""
+        if samples is None:
+            return t * t
+        dof = (int(samples) - 1) * (2 ** k + 2) ** 2
+        if dof <= 0:
+            return np.inf
+        from scipy import stats
+
+        return float(stats.t.isf(stats.norm.sf(t), dof)) ** 2
 
     v = np.where(np.isnan(v), np.inf, v)
     v = _neighbourhood_max(v)
@@ -121,7 +143,7 @@ def threshold_correction(delta, variance, *, threshold=None):
         ns.append(_pool(ns[-1], "sum"))
     with np.errstate(invalid="ignore", over="ignore"):
         mean_top = sums[-1] / ns[-1]
-        keep = mean_top ** 2 >= t2(mean_top) * qs[-1] / ns[-1] ** 2
+        keep = mean_top ** 2 >= t2(t_mean, len(sums) - 1) * qs[-1] / ns[-1] ** 2
         r = np.where(keep, mean_top, 0.0)
         share = 1.0
         for k in range(len(sums) - 2, -1, -1):
@@ -130,7 +152,7 @@ def threshold_correction(delta, variance, *, threshold=None):
             mp = _up(sums[k + 1], shape) / np_
             var_d = qs[k] / ns[k] ** 2 - 2.0 * qs[k] / (ns[k] * np_) + _up(qs[k + 1], shape) / np_ ** 2
             det = mk - mp
-            z_max = _pool(np.where(det ** 2 >= t2(det) * var_d, 1.0, 0.0), "max")  # any child of the parent
+            z_max = _pool(np.where(det ** 2 >= t2(t_detail, k) * var_d, 1.0, 0.0), "max")  # any child of the parent
             group = _up(z_max, shape) > 0.0
             r = _up(r, shape) + np.where(group, det, 0.0)
             if k == 0:
