@@ -15,8 +15,10 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   ``path_traced+OIDN``) at 1, 2, 4, … ``--max-spp`` samples per pixel; ``progressive`` (its
   default base: diffusion with 4 transport sweeps and flux limiting) and ``progressive, diffusion
   base`` (plain diffusion) as a user sees them after a camera move: the drag frame, then the
-  resting frames at 0, 1, 2, 4, … samples, each timed after the drag frame (its time added; the
-  drag frame is its base model's, measured once);
+  resting frames at 0, 1, 2, 4, … samples (the drag frame is its base model's, measured once;
+  as for the noise-free models, the drag frame and each resting frame are timed on their own —
+  in interactive mode the drag frames are shown while the camera moves, and the resting frame
+  starts when it stops);
   time: median of ``--repeats`` renders, error: the 4×4-block relative RMSE
   (:func:`pv_ambient.metrics.block_relative_rmse`) with a 7×7 window at each light's projection
   masked, one seed per sample count;
@@ -155,14 +157,14 @@ def run_scene(name, n, size, max_spp, repeats, log):
             pt_models.insert(1, ("path_traced+OIDN", "path_traced", {"denoise": True}, 1))
         final = {}
         for label, model, opts, start in pt_models:
-            pts, t0 = [], 0.0
+            pts = []
             if model == "progressive":  # its drag frame first (its base's: the same render), then the resting frames
                 img, t0 = previews[PROGRESSIVE[label]]
                 pts.append((t0 / unit, metrics.block_relative_rmse(img, ref, mask)))
             for spp in spp_ladder(max_spp, start):
                 o = dict(opts, samples_per_pixel=spp, seed=1000 + spp)
                 res, t = timed(r, cam, size, g, model, o, repeats)
-                pts.append(((t0 + t) / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
+                pts.append((t / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
                 final[label] = res
             if model == "progressive":
                 res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False,
