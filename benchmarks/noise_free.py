@@ -123,14 +123,7 @@ class Log:
             self.path.write_text("\n".join(self.lines) + "\n")
 
 
-def orbit(cam, degrees):
-    """``cam`` turned by ``degrees`` about the axis through its focal point along its view-up."""
-    pos, foc = np.array(cam.position), np.array(cam.focal_point)
-    k = np.array(cam.view_up, float)
-    k /= np.linalg.norm(k)
-    v, a = pos - foc, np.radians(degrees)
-    v = v * np.cos(a) + np.cross(k, v) * np.sin(a) + k * np.dot(k, v) * (1 - np.cos(a))
-    return pa.Camera(tuple(foc + v), cam.focal_point, cam.view_up, view_angle=cam.view_angle)
+orbit = scene_registry.orbit  # the camera turned about its focal point (benchmarks/scenes.py)
 
 
 def ref_key(name, renderer, lights, g, cam, size, spp):

@@ -22,8 +22,21 @@ Every scene function below is the scene exactly as its benchmark had it (the ``t
 
 from __future__ import annotations
 
+import numpy as np
+
 import pv_ambient as pa
 from pv_ambient import datasets
+
+
+def orbit(cam, degrees):
+    """``cam`` turned by ``degrees`` about the axis through its focal point along its view-up (a
+    camera move: the benchmarks time frames from such cameras)."""
+    pos, foc = np.array(cam.position), np.array(cam.focal_point)
+    k = np.array(cam.view_up, float)
+    k /= np.linalg.norm(k)
+    v, a = pos - foc, np.radians(degrees)
+    v = v * np.cos(a) + np.cross(k, v) * np.sin(a) + k * np.dot(k, v) * (1 - np.cos(a))
+    return pa.Camera(tuple(foc + v), cam.focal_point, cam.view_up, view_angle=cam.view_angle)
 
 
 # -- the trade (benchmarks/trade.py) -------------------------------------------------------------------------

@@ -11,7 +11,8 @@ point light, a CT-like phantom with two coloured point lights):
   and several radii, ``diffusion`` plain, flux-limited and with 4 transport sweeps + flux
   limiting, ``progressive`` at 0, 16 and 64 samples, ``path_traced`` at 1, 2, 4, … spp (and with
   the denoiser when ``pyoidn`` is installed): first-frame time (all caches
-  cold but Numba compiled) and camera-move time (caches warm), median of ``--repeats``, as ratios
+  cold but Numba compiled, the frame scored) and camera-move time (view-independent caches warm,
+  cameras orbited by 1°, 2°, …: ``progressive`` keeps its base picture per view), median of ``--repeats``, as ratios
   to the VTK frame; 4×4-block and per-pixel relative RMSE, relative bias of the mean, SSIM, each
   against the reference with a small window around each light's projection masked;
 * the time the path tracer needs for the same block error (interpolated on its own curve);
@@ -190,9 +191,10 @@ def main(argv=None):
             res = r2.render(camera=cam, window_size=size, model=model, phase=g, **opts)
             t_first = time.perf_counter() - t
             times = []
-            for _ in range(args.repeats):
+            for k in range(args.repeats):  # camera moves: cameras orbited by 1°, 2°, … (nothing per view reused)
+                c = scene_registry.orbit(cam, 1.0 + k)
                 t = time.perf_counter()
-                res = r2.render(camera=cam, window_size=size, model=model, phase=g, **opts)
+                r2.render(camera=c, window_size=size, model=model, phase=g, **opts)
                 times.append(time.perf_counter() - t)
             r.cache.share(r2.cache)
             t_move = float(np.median(times))
