@@ -91,8 +91,10 @@ def timed(r, cam, size, g, model, opts, repeats):
 
 
 def preview(r, cam, size, g, model, opts, repeats):
-    """The model's drag frame in interactive mode (``add_ambient_volume``'s defaults while the
-    camera moves): half the window per axis and twice the ray step; shown on the full-size plane
+    """The model's drag frame in interactive mode: half the window per axis (``add_ambient_volume``'s
+    default ``interactive_resolution``) and twice the ray step (its drag step after one doubling:
+    it starts at the resting step and doubles while frames are slower than the window's desired
+    rate, up to ``interactive_step``); shown on the full-size plane
     with linear texture interpolation — here the same upsampling by ``scipy.ndimage.zoom``. Returns
     the full-size image and the median time of the half-size render (the upsampling is the
     texture's, not counted)."""

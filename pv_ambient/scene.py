@@ -40,6 +40,11 @@ warning). The PNG's default ``exposure`` is ``"auto"`` for the lit models (docs/
 0 for emission–absorption and ambient occlusion, as before; a number or ``"auto"`` may be given.
 With ``lights`` given, the radiance (``--radiance``) is what 0.2.0 wrote, bit for bit (tested).
 
+A model's options go at top level too (``pv_ambient.rendering.presets.SCENE_OPTIONS``:
+``"samples_per_pixel"``, ``"radius"``, ``"flux_limited"``, ``"sweep_orders"``, …); since
+pv_ambient 0.4.0 (format version unchanged) ``"model": "progressive"`` with its
+``"base_model"`` and ``"unbiased"`` (docs/progressive.rst).
+
 Unknown top-level keys are reported with a warning and ignored (a newer file read by an older
 version); unknown keys inside ``camera``, ``lights``, ``transfer_function``, ``image`` and
 ``display`` are errors.

@@ -123,7 +123,10 @@ def test_bad_arguments_name_what_was_wrong():
         r.render(window_size=SIZE, model="progressive", ray_end=np.full(SIZE[::-1], np.inf))
     with pytest.raises(ValueError, match="samples_per_pixel"):
         r.render(window_size=SIZE, model="progressive", samples_per_pixel=-1)
-    with pytest.raises(TypeError, match="unbiased"):
-        r.render(window_size=SIZE, model="progressive", unbiased="yes")
+    for bad in ("yes", 1):
+        with pytest.raises(TypeError, match="unbiased must be True or False"):
+            r.render(window_size=SIZE, model="progressive", unbiased=bad)
+        with pytest.raises(TypeError, match="denoise must be True or False"):
+            r.render(window_size=SIZE, model="path_traced", denoise=bad)
     with pytest.warns(UserWarning, match="base_model"):
         r.render(window_size=SIZE, model="diffusion", base_model="diffusion")

@@ -22,7 +22,7 @@ from ..inputs.grid import Volume, volume_from_image
 from ..inputs.lights import as_lights, needs_camera, pack_lights
 from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
-from ..inputs.validation import check_choice, check_int, check_real, check_rgb, check_window_size
+from ..inputs.validation import check_bool, check_choice, check_int, check_real, check_rgb, check_window_size
 from ..stages.reference import EQ_RADIUS, RR_DEPTH
 from ..stages.refine import threshold_correction
 from .cache import SceneCache
@@ -351,10 +351,9 @@ class Renderer(SceneStages):
             budget = check_real(budget, "time_budget", lo=0.0, lo_open=True)
             if model != "auto":
                 raise ValueError(f"time_budget chooses the model: use it with model='auto', not {model!r}")
-        for flag in ("denoise", "unbiased"):
-            value = model_options.get(flag, False)
-            if value not in (True, False):
-                raise TypeError(f"{flag} must be True or False, got {value!r}")
+        for flag in ("denoise", "unbiased"):  # a bool, not 0/1 or a string that happens to compare equal
+            if flag in model_options:
+                model_options[flag] = check_bool(model_options[flag], flag)
         if "sweep_orders" in model_options:
             check_int(model_options["sweep_orders"], "sweep_orders", lo=0)
         if model in ("path_traced", "progressive") and ray_end is not None:
