@@ -91,7 +91,8 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
     """The correction ``delta`` (an ``(H, W, C)`` estimate whose per-entry variance is
     ``variance``) with every Haar detail that does not stand out of its noise removed (module
     docstring). Returns ``(kept, share)``: the float64 correction to add to the base picture and
-    the share of pixel-level detail groups kept (0 to 1; 1 once every pixel's own level is in).
+    the share of pixel-level detail groups kept (0 to 1; 1 once every pixel's own level is in),
+    counted over the groups with a non-zero detail or variance.
 
     ``threshold``: in standard errors, one for every level; default: :func:`universal_threshold`
     of ``delta.size`` for the details, of the channel count for the whole image's mean.
@@ -155,6 +156,7 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
             z_max = _pool(np.where(det ** 2 >= t2(t_detail, k) * var_d, 1.0, 0.0), "max")  # any child of the parent
             group = _up(z_max, shape) > 0.0
             r = _up(r, shape) + np.where(group, det, 0.0)
-            if k == 0:
-                share = float(np.mean(z_max > 0.0))
+            if k == 0:  # over the groups with something to keep (not where every sample agreed on 0)
+                active = _pool(np.where((det != 0.0) | ~(var_d <= 0.0), 1.0, 0.0), "max") > 0.0
+                share = float(np.mean(z_max[active] > 0.0)) if active.any() else 1.0
     return r, share
