@@ -85,7 +85,7 @@ def test_default_picture_keeps_the_measurable_correction(scene):
     """The default picture is the base plus the thresholded correction of the unbiased one
     (same samples): between the two per pixel where a detail is dropped, equal to the unbiased
     picture's mean wherever the whole image's correction stands out of its noise (kept together per
-    block, docs/progressive.rst), and within √(2 ln 3) = 1.5 of its standard errors otherwise."""
+    block, docs/progressive.rst), and within t = √(2 ln n) of its standard errors otherwise."""
     from pv_ambient.rendering.renderer import refined_picture
     from pv_ambient.stages.refine import universal_threshold
 
@@ -101,7 +101,7 @@ def test_default_picture_keeps_the_measurable_correction(scene):
     assert p.metadata["kept"] == kept
     se_mean = float(np.sqrt(np.sum(u.std_error.astype(np.float64) ** 2))) / u.std_error.size
     gap = abs(float(np.mean(p.radiance, dtype=np.float64)) - float(np.mean(u.radiance, dtype=np.float64)))
-    assert gap <= universal_threshold(3) * se_mean + 1e-6  # the whole image's level: 3 coefficients
+    assert gap <= universal_threshold(u.radiance.size) * se_mean + 1e-6
 
 
 def test_control_variate_lowers_the_variance_where_the_model_is_close():

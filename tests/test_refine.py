@@ -80,7 +80,7 @@ def test_few_samples_raise_the_threshold():
     Gaussian one's tail probability. Pure noise whose variance estimates come from 2 samples per
     pixel (χ² with 1 degree of freedom: often far too small) crosses the Gaussian threshold in
     1–3 pixel groups of 768 over seeds 0–5 (expected with the true variance: 0.03); told the sample
-    count, in none, and from one sample nothing at all is kept."""
+    count, in none, and from one sample nothing is kept."""
     rng = np.random.default_rng(4)
     x = rng.normal(size=(2, 64, 48, 3))  # two samples per pixel, true variance 1
     mean = x.mean(axis=0)
@@ -90,4 +90,19 @@ def test_few_samples_raise_the_threshold():
     assert kept_gauss >= 1 / 768 and kept == 0.0
     out, kept = threshold_correction(mean, var_of_mean, samples=1)
     np.testing.assert_array_equal(out, 0.0)
-    assert threshold_correction(_smooth(), np.zeros_like(_smooth()), samples=1)[0].max() == 0.0
+
+
+def test_exact_pixels_keep_their_own_correction():
+    """Pixels whose correction is known exactly (zero variance there and around: e.g. background
+    every sample left at once) keep exactly their own value — a correction measured on the medium
+    does not leak into them — and the block means are those of the other pixels."""
+    rng = np.random.default_rng(5)
+    d = np.zeros((32, 32, 3))
+    v = np.zeros_like(d)
+    d[8:24, 8:24] = 0.5 + rng.normal(0.0, 0.1, (16, 16, 3))  # the medium: a clear shift under noise
+    v[8:24, 8:24] = 0.01
+    out, _ = threshold_correction(d, v)
+    np.testing.assert_array_equal(out[:6], 0.0)  # two pixels from the medium: outside its 3×3 reach
+    np.testing.assert_array_equal(out[:, :6], 0.0)
+    inner = out[10:22, 10:22]
+    assert abs(float(inner.mean()) - 0.5) < 0.03  # the shift is kept where the medium is

@@ -15,14 +15,17 @@ detail is added where it stands out of its own noise:
   Var(M_p)``, from ``v`` with the pixels independent (they are: each pixel's samples are its
   own); the details of a parent's (up to four) children are kept *together*, when any of them
   has ``d² ≥ t²·Var(d)`` — so a kept level never moves its parent's mean, and the picture's mean
-  is the whole image's level (kept or not);
+  is the whole image's level (kept or not), over the pixels not known exactly (below);
 * ``t = √(2 ln n)``, ``n`` the number of coefficients (pixels × channels): the universal
   threshold of wavelet shrinkage (Donoho & Johnstone 1994), under which pure noise crosses with
   probability → 0 as the image grows — 4.3 for a 64×64 RGB picture. A detail kept by mistake
   adds the same squared error at every level (a block's noise falls as its pixels grow), so one
-  threshold serves all of them. The whole image's mean is the exception: ``t = √(2 ln C)`` for
-  its ``C`` channels (1.5 for RGB) — keeping it by mistake costs no more than any detail, while
-  dropping a real shift of the whole image would leave that shift as the picture's bias.
+  threshold serves all of them, the whole image's mean included (a lower threshold there, tried
+  first, let heavy-tailed noise shift whole pictures at a few samples per pixel).
+* A pixel whose variance is 0 — there and in its 3×3 neighbourhood, e.g. background that every
+  sample left at once — holds a correction known exactly: it keeps exactly its own, and the
+  block means are those of the other pixels (a correction measured on the medium does not leak
+  into the empty space around it).
 * The variances are estimated from the samples themselves: with ``samples`` per pixel given,
   ``t`` becomes Student's t quantile of the same tail probability, with the degrees of freedom
   of the block's pooled estimate, ``(samples − 1)·(2^k + 2)²`` at level ``k`` (its pixels and
@@ -31,7 +34,7 @@ detail is added where it stands out of its own noise:
 The result is *consistent*, not unbiased at every sample count: as the samples grow every
 variance falls to zero, every non-zero detail is kept and the picture tends to ``P``'s limit,
 the transfer equation's answer; at a finite count a detail is dropped only while it is below
-``t`` of its noise, and the image mean is dropped only while it is below 1.5 of its standard
+``t`` of its noise, and the image mean is dropped only while it is below ``t`` of its standard
 error. A pixel whose variance is infinite (fewer than two samples) or NaN keeps nothing of its
 own level. Each pixel's variance is first replaced by the larger of it and its 3×3
 neighbourhood's mean, so that a pixel whose few samples happen to agree (an underestimated
@@ -95,7 +98,7 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
     counted over the groups with a non-zero detail or variance.
 
     ``threshold``: in standard errors, one for every level; default: :func:`universal_threshold`
-    of ``delta.size`` for the details, of the channel count for the whole image's mean.
+    of ``delta.size``.
     ``samples``: the samples per pixel ``variance`` was estimated from (None: known exactly); a
     variance estimated from few samples is itself uncertain, and the threshold becomes Student's
     t quantile of the same tail probability (module docstring) — no detail is kept from one
@@ -118,11 +121,10 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
     if d.shape != v.shape or d.ndim != 3:
         raise ValueError(f"delta and variance must be (H, W, C) arrays of one shape, got {d.shape} and {v.shape}")
 
-    t_detail = universal_threshold(d.size) if threshold is None else float(threshold)
-    t_mean = universal_threshold(d.shape[2]) if threshold is None else float(threshold)
+    t = universal_threshold(d.size) if threshold is None else float(threshold)
 
-    def t2(t, k):
-        """The squared threshold ``t`` for a variance estimated from ``samples`` per pixel over a
+    def t2(k):
+        """The squared threshold for a variance estimated from ``samples`` per pixel over a
         level-``k`` block (pooled over its pixels and their 3×3 neighbours): Student's t quantile
         with the Gaussian ``t``'s tail probability (Welch–Satterthwaite degrees of freedom)."""
         if samples is None:
@@ -136,27 +138,37 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
 
     v = np.where(np.isnan(v), np.inf, v)
     v = _neighbourhood_max(v)
-    # the pyramid of sums: S (of Δ̂), Q (of the variances), n (pixels), level 0 the pixels
-    sums, qs, ns = [d], [v], [np.ones(d.shape[:2] + (1,))]
+    exact = v == 0.0  # a correction known exactly (no spread here nor next to it): kept as it is
+    w = np.where(exact, 0.0, 1.0)
+    # the pyramid of sums over the other pixels: S (of Δ̂), Q (of the variances), n (pixels)
+    sums, qs, ns = [d * w], [np.where(exact, 0.0, v)], [w]
     while sums[-1].shape[0] > 1 or sums[-1].shape[1] > 1:
         sums.append(_pool(sums[-1], "sum"))
         qs.append(_pool(qs[-1], "sum"))
         ns.append(_pool(ns[-1], "sum"))
+
+    def moments(k):  # block means and their variances (a block with no such pixel: nothing to keep)
+        n = ns[k]
+        some = n > 0.0
+        safe = np.where(some, n, 1.0)
+        return np.where(some, sums[k] / safe, 0.0), np.where(some, qs[k] / safe ** 2, np.inf), safe
+
     with np.errstate(invalid="ignore", over="ignore"):
-        mean_top = sums[-1] / ns[-1]
-        keep = mean_top ** 2 >= t2(t_mean, len(sums) - 1) * qs[-1] / ns[-1] ** 2
-        r = np.where(keep, mean_top, 0.0)
+        mean_top, var_top, _ = moments(len(sums) - 1)
+        r = np.where(mean_top ** 2 >= t2(len(sums) - 1) * var_top, mean_top, 0.0)
         share = 1.0
         for k in range(len(sums) - 2, -1, -1):
             shape = sums[k].shape
-            mk, np_ = sums[k] / ns[k], _up(ns[k + 1], shape)
-            mp = _up(sums[k + 1], shape) / np_
-            var_d = qs[k] / ns[k] ** 2 - 2.0 * qs[k] / (ns[k] * np_) + _up(qs[k + 1], shape) / np_ ** 2
+            mk, vk, nk = moments(k)
+            mp, vp, np_ = (_up(a, shape) for a in moments(k + 1))
+            var_d = vk - 2.0 * np.where(np.isfinite(vk), qs[k] / (nk * np_), np.inf) + vp
             det = mk - mp
-            z_max = _pool(np.where(det ** 2 >= t2(t_detail, k) * var_d, 1.0, 0.0), "max")  # any child of the parent
+            stands = (det != 0.0) & (det ** 2 >= t2(k) * var_d)
+            z_max = _pool(np.where(stands, 1.0, 0.0), "max")  # any child of the parent
             group = _up(z_max, shape) > 0.0
             r = _up(r, shape) + np.where(group, det, 0.0)
-            if k == 0:  # over the groups with something to keep (not where every sample agreed on 0)
-                active = _pool(np.where((det != 0.0) | ~(var_d <= 0.0), 1.0, 0.0), "max") > 0.0
+            if k == 0:  # over the groups with something to keep (not where every pixel is exact)
+                active = _pool(np.where(exact, 0.0, 1.0), "max") > 0.0
                 share = float(np.mean(z_max[active] > 0.0)) if active.any() else 1.0
+        r = np.where(exact, d, r)
     return r, share
