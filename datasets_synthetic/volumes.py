@@ -115,6 +115,14 @@ def _smoothstep(e0, e1, x):
     return t * t * (3.0 - 2.0 * t)
 
 
+def _face_window(values, coords, width):
+    """``values`` times a soft window: 1 inside, falling to 0 over the outer ``width`` of each
+    face of the cube [-1, 1]³ (``coords``: the X, Y, Z grids)."""
+    for c in coords:
+        values = values * _smoothstep(0.0, width, 1.0 - np.abs(c))
+    return values
+
+
 def _volume(name, values, origin, spacing, description, scalars_name="density"):
     return SyntheticVolume(name=name, values=np.ascontiguousarray(np.clip(values, 0.0, 1.0), dtype=np.float32),
                            origin=origin, spacing=spacing, description=description,
@@ -150,9 +158,7 @@ def cloud(n=64, seed: int = 0) -> SyntheticVolume:
     body = 1.0 - np.sqrt((X / 0.75) ** 2 + (Y / 0.75) ** 2 + ((Z + 0.1) / 0.5) ** 2)
     d = body + 0.9 * fbm_grid(*axes, seed=seed, name="cloud", frequency=2.5)
     values = _smoothstep(0.0, 0.3, d)
-    # Soft window: 1 inside, falling to 0 over the outer 0.2 of each face.
-    for c in (X, Y, Z):
-        values = values * _smoothstep(0.0, 0.2, 1.0 - np.abs(c))
+    values = _face_window(values, (X, Y, Z), 0.2)  # density 0 at the faces
     return _volume("cloud", values, origin, spacing,
                    "fBm cloud: a flattened ellipsoid (semi-axes 0.75, 0.75, 0.5) with turbulent, "
                    "soft edges; density falls to exactly 0 at the domain boundary. "
@@ -261,9 +267,7 @@ def haze(n=64, seed: int = 0) -> SyntheticVolume:
     # Low-frequency fBm around a level that falls with height (mean ≈ 0.5), never quite clear.
     f = fbm_grid(*axes, seed=seed, name="haze", frequency=1.2, octaves=4)
     values = np.clip(0.5 - 0.2 * Z + 1.6 * f, 0.05, 1.0)
-    # Soft window: 1 inside, falling to 0 over the outer 0.15 of each face.
-    for c in (X, Y, Z):
-        values = values * _smoothstep(0.0, 0.15, 1.0 - np.abs(c))
+    values = _face_window(values, (X, Y, Z), 0.15)  # density 0 at the faces
     return _volume("haze", values, origin, spacing,
                    "Haze: a smooth, low-frequency fBm density filling the whole cube (level "
                    "0.5 − 0.2 z plus fBm, clipped to [0.05, 1]), falling to exactly 0 over the "
@@ -280,8 +284,7 @@ def blob(n=64, seed: int = 0) -> SyntheticVolume:
     body = body + 0.3 * fbm_grid(*axes, seed=seed, name="blob.surface", frequency=1.5, octaves=3)
     texture = 0.9 + 0.5 * fbm_grid(*axes, seed=seed, name="blob.texture", frequency=4.0, octaves=3)
     values = _smoothstep(0.0, 0.08, body) * np.clip(texture, 0.0, 1.0)
-    for c in (X, Y, Z):
-        values = values * _smoothstep(0.0, 0.1, 1.0 - np.abs(c))
+    values = _face_window(values, (X, Y, Z), 0.1)  # density 0 at the faces
     return _volume("blob", values, origin, spacing,
                    "Blob: a compact, nearly uniform dense object — an ellipsoid (semi-axes 0.6, "
                    "0.55, 0.5) with an fBm-perturbed surface and a smooth edge, density ≈ 0.9 "

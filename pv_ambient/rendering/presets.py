@@ -100,6 +100,10 @@ ERT = 1e-5
 #: Scattering orders that ``auto`` carries by transport sweeps with ``quality="accurate"``
 #: (flux-limited diffusion for the rest; docs/diffusion.rst §5, docs/models.rst).
 AUTO_SWEEP_ORDERS = 4
+#: Diffusion's most accurate options (flux limiting and the transport sweeps): ``auto``'s choice at
+#: quality "accurate" and the ``progressive`` model's default base except at "preview"; options the
+#: caller gives take precedence.
+ACCURATE_DIFFUSION = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}
 #: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
 BUDGET_MAX_SPP = 4096
 

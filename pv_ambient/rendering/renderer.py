@@ -28,7 +28,7 @@ from ..stages.refine import threshold_correction
 from .cache import SceneCache
 from .presets import (
     ALL_MODELS,
-    AUTO_SWEEP_ORDERS,
+    ACCURATE_DIFFUSION,
     BUDGET_MAX_SPP,
     DEFAULT_PROGRESSIVE_BASE,
     DEFAULT_PROPAGATION,
@@ -182,8 +182,7 @@ class Renderer(SceneStages):
                 extra["samples_per_pixel"] = BUDGET_MAX_SPP
             return "path_traced", extra
         if model == "diffusion" and request.quality == "accurate":
-            return model, {"flux_limited": request.options.get("flux_limited", True),
-                           "sweep_orders": request.options.get("sweep_orders", AUTO_SWEEP_ORDERS)}
+            return model, {k: request.options.get(k, v) for k, v in ACCURATE_DIFFUSION.items()}
         return model, {}
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
@@ -596,7 +595,7 @@ class Renderer(SceneStages):
         base = options.get("base_model", DEFAULT_PROGRESSIVE_BASE)
         base_options = {k: options[k] for k in ("flux_limited", "sweep_orders") if k in options}
         if base == "diffusion" and req.quality != "preview":  # the sweeps and flux limiting, as auto's accurate
-            base_options = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS, **base_options}
+            base_options = {**ACCURATE_DIFFUSION, **base_options}
         cam, size = req.camera, req.window_size
         key = ("progressive_base", base, tuple(sorted(base_options.items())), tuple(self.lights),
                np.asarray(cam.params(size), np.float64).tobytes(), tuple(size), req.step, req.radius,

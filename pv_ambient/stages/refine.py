@@ -161,7 +161,7 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
             shape = sums[k].shape
             mk, vk, nk = moments(k)
             mp, vp, np_ = (_up(a, shape) for a in moments(k + 1))
-            var_d = vk - 2.0 * np.where(np.isfinite(vk), qs[k] / (nk * np_), np.inf) + vp
+            var_d = vk - 2.0 * qs[k] / (nk * np_) + vp  # Var(M_c) − 2 Cov(M_c, M_p) + Var(M_p)
             det = mk - mp
             stands = (det != 0.0) & (det ** 2 >= t2(k) * var_d)
             z_max = _pool(np.where(stands, 1.0, 0.0), "max")  # any child of the parent
