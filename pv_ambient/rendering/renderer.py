@@ -247,7 +247,7 @@ class Renderer(SceneStages):
                per pixel as fit in the budget (``samples_per_pixel`` is then the cap, default
                4096), denoised when ``pyoidn`` is installed — the path tracer reaches a
                noise-free model's error in less time than that model's first frame on all but
-               one row of the trade benchmark (README, "The trade"). The denoiser's time (one emission–absorption frame for its
+               two rows of the trade benchmark (README, "The trade"). The denoiser's time (one emission–absorption frame for its
                guide, then OIDN) comes on top of the budget.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
