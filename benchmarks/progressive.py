@@ -6,7 +6,8 @@ cloud_sun) at 64×64 pixels and 64³ data points, against the cached ``path_trac
 benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when the cache is stale):
 
 * the time unit: VTK's ``fixed_point`` emission–absorption frame of the same view (median of
-  ``--repeats``, as benchmarks/trade.py measures it);
+  3 × ``--repeats`` frames, at least 15, as benchmarks/trade.py measures it: every figure is
+  divided by it, so it gets more frames than the models);
 * every model's *camera-move* frames (the view-independent stages — light volumes, diffusion
   solves, bakes — cached, as after a camera move): the noise-free models (single scattering,
   ambient scattering, diffusion plain / flux-limited / with 4 transport sweeps) once each, and
@@ -140,7 +141,7 @@ def run_scene(name, n, size, max_spp, repeats, log):
     mask = metrics.light_mask(size[::-1], cam, size, lights)
     ref, info, how = nf.reference(name, r, lights, g, cam, mask, False, size)
     step = r.default_step()
-    unit = vtk_time(grid, r, cam, size, step, max(5, repeats))
+    unit = vtk_time(grid, r, cam, size, step, max(15, 3 * repeats))
     log(f"\n{name}: {scene_registry.DESCRIPTIONS[name]}")
     log(f"  reference ({how}): {info['spp']} spp, relative error {info['relative_error']:.4f}, block noise "
         f"{info['block_noise']:.4f}; VTK frame {unit * 1e3:.2f} ms")

@@ -133,3 +133,43 @@ def test_preference_cell_wins_over_active_point_scalars():
     r = pa.Renderer(g, scalars="c", preference="cell")
     assert r.volume.association == "cell" and r.volume.geometry.shape == (4, 4, 4)
     assert pa.Renderer(g).volume.association == "point"
+
+
+def test_distance_to_the_box_matches_brute_force():
+    """A rotated, anisotropically spaced grid: the per-axis clamp in index space against the
+    smallest distance to a dense sample of the box's surface (its nearest point is on the surface
+    or the point is inside: 0); a sheared map gives a lower bound."""
+    from pv_ambient.inputs.grid import geometry_from_spacing, make_geometry
+
+    rng = np.random.default_rng(3)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    if np.linalg.det(q) < 0:
+        q[:, 0] *= -1
+    g = geometry_from_spacing((5, 4, 3), spacing=(0.3, 0.5, 0.7), origin=(0.2, -0.1, 0.4), direction=q)
+    u = np.linspace(0.0, 1.0, 81)
+    a, b = np.meshgrid(u, u, indexing="ij")
+    faces = []
+    for axis in range(3):
+        for side in (0.0, 1.0):
+            f = np.empty(a.shape + (3,))
+            others = [k for k in range(3) if k != axis]
+            f[..., axis] = side
+            f[..., others[0]], f[..., others[1]] = a, b
+            faces.append(f.reshape(-1, 3))
+    t = np.concatenate(faces)
+    surface = g.to_world(g.box_lo + t * (g.box_hi - g.box_lo))
+    pts = g.to_world(g.box_lo - 2.0 + rng.random((40, 3)) * (g.box_hi - g.box_lo + 4.0))
+    inside = np.all((g.to_index(pts) >= g.box_lo) & (g.to_index(pts) <= g.box_hi), axis=1)
+    brute = np.where(inside, 0.0, np.min(np.linalg.norm(pts[:, None] - surface[None], axis=2), axis=1))
+    got = g.distance_to(pts)
+    h = 1.0 / 80 * float(np.max(g.spacing * (g.box_hi - g.box_lo)))  # the surface sample's spacing
+    assert np.all(got <= brute + 1e-12) and np.all(brute - got <= h)
+    assert inside.any() and (~inside).any()
+    m = np.eye(4)
+    m[:3, :3] = [[1.0, 0.6, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]  # sheared: a lower bound
+    s = make_geometry((4, 4, 4), m)
+    sheared = s.to_world(s.box_lo - 1.0 + rng.random((30, 3)) * (s.box_hi - s.box_lo + 2.0))
+    surface = s.to_world(s.box_lo + t * (s.box_hi - s.box_lo))
+    ins = np.all((s.to_index(sheared) >= s.box_lo) & (s.to_index(sheared) <= s.box_hi), axis=1)
+    true = np.where(ins, 0.0, np.min(np.linalg.norm(sheared[:, None] - surface[None], axis=2), axis=1))
+    assert np.all(s.distance_to(sheared) <= true + 1e-12)

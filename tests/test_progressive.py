@@ -115,6 +115,39 @@ def test_control_variate_lowers_the_variance_where_the_model_is_close():
     assert float(np.mean(p.std_error ** 2)) < 0.5 * float(np.mean(q.std_error ** 2))
 
 
+def test_control_march_only_where_the_clamp_changes_it(monkeypatch):
+    """The control's second march (point lights clamped at the equiangular radius) runs only when
+    a point light is within that radius of the box: for a light farther away the clamp changes
+    nothing, and the picture equals the one with the march forced — bit for bit."""
+    import pv_ambient.rendering.renderer as rmod
+    from pv_ambient.inputs.grid import GridGeometry
+
+    marches = []
+    real = rmod.run_raycast
+
+    def counting(*args, **kw):
+        marches.append(kw.get("name"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(rmod, "run_raycast", counting)
+    tf = {"kind": "colormap", "cmap": "bone", "clim": [0.0, 1.0], "opacity": "linear", "albedo": 0.9,
+          "opacity_unit_distance": 0.15}
+    kw = dict(window_size=SIZE, model="progressive", samples_per_pixel=4, seed=3, unbiased=True)
+    far = pa.PointLight((0.3, 0.2, 3.5), intensity=8.0)  # 2.5 from the box [-1, 1]³; the radius is 0.87
+    p = pa.Renderer(datasets.cloud(n=12), transfer_function=tf, lights=[far]).render(**kw)
+    assert marches.count("ray cast (control)") == 0
+    monkeypatch.setattr(GridGeometry, "distance_to", lambda self, xyz: np.zeros(len(xyz)))
+    q = pa.Renderer(datasets.cloud(n=12), transfer_function=tf, lights=[far]).render(**kw)
+    assert marches.count("ray cast (control)") == 1
+    np.testing.assert_array_equal(p.radiance, q.radiance)
+    np.testing.assert_array_equal(p.std_error, q.std_error)
+    monkeypatch.undo()
+    monkeypatch.setattr(rmod, "run_raycast", counting)
+    r, _ = _lit_inside()
+    r.render(**kw)
+    assert marches.count("ray cast (control)") == 2
+
+
 def test_bad_arguments_name_what_was_wrong():
     r, g = _cloud()
     with pytest.raises(ValueError, match="base_model"):

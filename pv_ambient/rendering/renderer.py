@@ -616,7 +616,10 @@ class Renderer(SceneStages):
             # samples the singular part near a light; the control stays smooth there) — its own march
             c = self.geometry.corners
             rc = EQ_RADIUS * float(np.max(np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)))
-            if np.any(lrec.kind == 0) and rc * rc > lrec.d2min:
+            # (a light farther than rc from the box: the clamp changes nothing there, and the
+            # control's picture is the base's — no second march)
+            points = np.asarray(lrec.vec)[np.asarray(lrec.kind) == 0]
+            if len(points) and rc * rc > lrec.d2min and float(np.min(self.geometry.distance_to(points))) < rc:
                 args = args[:4] + (lrec._replace(d2min=rc * rc),) + args[5:]
                 w, h = req.window_size
                 control_image = np.zeros((h, w, 3), np.float32)
