@@ -84,6 +84,12 @@ class GridGeometry:
         """True when the box has zero volume (an axis with a single grid point)."""
         return bool(np.any(self.box_hi <= self.box_lo))
 
+    @property
+    def diagonal(self) -> float:
+        """World length of the box's longest diagonal (the largest distance between two corners)."""
+        c = self.corners
+        return float(np.max(np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)))
+
     def distance_to(self, xyz) -> np.ndarray:
         """World distance from each point of ``xyz`` (shape (..., 3)) to the medium's box (0 inside).
 

@@ -19,7 +19,7 @@ import numpy as np
 from ..backend import BACKENDS, resolve_backend, run_raycast
 from ..inputs.camera import as_camera
 from ..inputs.grid import Volume, volume_from_image
-from ..inputs.lights import as_lights, needs_camera, pack_lights
+from ..inputs.lights import POINT, as_lights, needs_camera, pack_lights
 from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
 from ..inputs.validation import check_bool, check_choice, check_int, check_real, check_rgb, check_window_size
@@ -614,11 +614,10 @@ class Renderer(SceneStages):
             lrec = args[4]
             # the control's point lights: I/d² clamped at the equiangular radius (the path tracer
             # samples the singular part near a light; the control stays smooth there) — its own march
-            c = self.geometry.corners
-            rc = EQ_RADIUS * float(np.max(np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)))
+            rc = EQ_RADIUS * self.geometry.diagonal
             # (a light farther than rc from the box: the clamp changes nothing there, and the
             # control's picture is the base's — no second march)
-            points = np.asarray(lrec.vec)[np.asarray(lrec.kind) == 0]
+            points = np.asarray(lrec.vec)[np.asarray(lrec.kind) == POINT]
             if len(points) and rc * rc > lrec.d2min and float(np.min(self.geometry.distance_to(points))) < rc:
                 args = args[:4] + (lrec._replace(d2min=rc * rc),) + args[5:]
                 w, h = req.window_size
@@ -686,6 +685,7 @@ class Renderer(SceneStages):
                     pass
             raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
         return check_real(radius, "radius", lo=0.0)
+
 
 def refined_picture(base, estimate, std_error, samples=None):
     """The ``progressive`` model's picture: ``base`` (the noise-free model's) plus the part of the

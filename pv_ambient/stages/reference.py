@@ -165,9 +165,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     ph = as_phase(phase)
     backend = resolve_backend(backend)
     eq = check_bool(equiangular, "equiangular")
-    c = geometry.corners
-    diag = float(np.max(np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)))
-    eq_radius = (EQ_RADIUS * diag if equiangular_radius is None
+    eq_radius = (EQ_RADIUS * geometry.diagonal if equiangular_radius is None
                  else check_real(equiangular_radius, "equiangular_radius", lo=0.0))
 
     t_start = time.perf_counter()
