@@ -280,6 +280,14 @@ def log_share(l, lights, view, medium, sig):
     return LOG_SHARE * s / (s + max(sig, 0.0))
 
 
+@scalar(inline=True)
+def log_angle_range(d_min, r):
+    """``(θ_min, ln(π/θ_min))`` of the log-uniform angle about a light at distance ``r``, ``θ_min``
+    the angle of the radius ``d_min`` seen from there."""
+    th_min = math.atan2(d_min, r)
+    return th_min, math.log(math.pi / th_min)
+
+
 @scalar
 def scatter_direction(wx, wy, wz, dx, dy, dz, sig, view, medium, lights, paths, k, dim):
     """The direction after scattering at world point w of a path travelling along d, and its weight
@@ -316,8 +324,8 @@ def scatter_direction(wx, wy, wz, dx, dy, dz, sig, view, medium, lights, paths, 
                 if pick == 0:
                     r = math.sqrt(d2)
                     if frac < log_share(l, lights, view, medium, sig):
-                        th_min = math.atan2(d_min, r)
-                        theta = th_min * math.exp(u1 * math.log(math.pi / th_min))
+                        th_min, span = log_angle_range(d_min, r)
+                        theta = th_min * math.exp(u1 * span)
                     else:
                         theta = math.pi * u1
                     inv = 1.0 / r
@@ -339,10 +347,10 @@ def scatter_direction(wx, wy, wz, dx, dy, dz, sig, view, medium, lights, paths, 
             if share > 0.0:
                 r = math.sqrt(d2)
                 theta = math.atan2(sin_t, c)
-                th_min = math.atan2(d_min, r)
+                th_min, span = log_angle_range(d_min, r)
                 pdf_theta = (1.0 - share) / math.pi
                 if theta >= th_min:
-                    pdf_theta += share / (theta * math.log(math.pi / th_min))
+                    pdf_theta += share / (theta * span)
                 cone += pdf_theta / (2.0 * math.pi * sin_t)
             else:
                 cone += 1.0 / (2.0 * math.pi * math.pi * sin_t)
