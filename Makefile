@@ -8,7 +8,10 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 export PYVISTA_OFF_SCREEN := true
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
-export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache
+# Numba's on-disk cache keys a compiled function on its own source file only: a kernel that inlines
+# a callee from another module would stay compiled with the old callee after an edit there. One cache
+# folder per state of the kernels' sources keeps every build consistent (make clean removes them all).
+export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache/$(firstword $(shell cat pv_ambient/_kernels/*.py | cksum))
 export MPLBACKEND := Agg
 
 .PHONY: demo test install clean bench docs gallery install-check
