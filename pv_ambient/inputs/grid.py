@@ -109,10 +109,8 @@ class GridGeometry:
             ijk = self.to_index(xyz)
             near = self.to_world(np.clip(ijk, self.box_lo, self.box_hi))
             return np.linalg.norm(xyz - near, axis=-1)
-        c = self.corners
-        centre = c.mean(axis=0)
-        radius = float(np.max(np.linalg.norm(c - centre, axis=1)))
-        return np.maximum(np.linalg.norm(xyz - centre, axis=-1) - radius, 0.0)
+        centre = self.corners.mean(axis=0)  # a parallelepiped's main diagonals meet there
+        return np.maximum(np.linalg.norm(xyz - centre, axis=-1) - 0.5 * self.diagonal, 0.0)
 
     def to_world(self, ijk) -> np.ndarray:
         ijk = np.asarray(ijk, dtype=np.float64)
