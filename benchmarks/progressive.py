@@ -26,7 +26,8 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
 * per budget B (in VTK frames: 3, 5, 10, 20, 50, 100), each model's error at B: the error of its
   most expensive frame that takes at most B — the picture a user has after that time (a model with
   no frame within B has none); printed per scene with ``*`` on the lowest, and whether each
-  ``progressive`` row is at or below every other model (the other ``progressive`` row excluded);
+  ``progressive`` row is at or below every other model (the other ``progressive`` rows excluded;
+  ``tie``: above, but equal at the table's three decimals — below the reference's own block noise);
 * the bias at ``--max-spp``: the relative error of the image mean against the reference's, with
   its standard error from the per-pixel standard errors, for ``path_traced`` and each
   ``progressive`` row — its default (thresholded) picture and its unbiased one
@@ -61,7 +62,8 @@ from trade import vtk_time
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 BUDGETS = (3, 5, 10, 20, 50, 100)
 #: The progressive rows and their base models' rows (whose drag frame is theirs: the same render).
-PROGRESSIVE = {"progressive": "diffusion 4 sweeps+FL", "progressive, diffusion base": "diffusion"}
+PROGRESSIVE = {"progressive": "diffusion 4 sweeps+FL", "progressive+OIDN": "diffusion 4 sweeps+FL",
+               "progressive, diffusion base": "diffusion"}
 NOISE_FREE = (
     ("single_scattering", "single_scattering", {}),
     ("AS", "ambient_scattering", {}),
@@ -158,6 +160,7 @@ def run_scene(name, n, size, max_spp, repeats, log):
                      ("progressive, diffusion base", "progressive", {"flux_limited": False, "sweep_orders": 0}, 0)]
         if have_oidn():
             pt_models.insert(1, ("path_traced+OIDN", "path_traced", {"denoise": True}, 1))
+            pt_models.insert(3, ("progressive+OIDN", "progressive", {"denoise": True}, 0))
         final = {}
         for label, model, opts, start in pt_models:
             pts = []
@@ -169,7 +172,7 @@ def run_scene(name, n, size, max_spp, repeats, log):
                 res, t = timed(r, cam, size, g, model, o, repeats)
                 pts.append((t / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
                 final[label] = res
-            if model == "progressive":
+            if model == "progressive" and not opts.get("denoise"):  # (the same samples as progressive's)
                 res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False,
                                samples_per_pixel=max_spp, seed=1000 + max_spp, unbiased=True, **opts)
                 final[label + " (unbiased)"] = res
@@ -188,16 +191,19 @@ def run_scene(name, n, size, max_spp, repeats, log):
     for label, vals in table.items():
         cells = [("       —" if v is None else f"{v:7.3f}{'*' if v == lows[i] else ' '}") for i, v in enumerate(vals)]
         log(f"    {label:28s} " + " ".join(cells))
-    ok = {}
+    ok, ok3 = {}, {}
     for row in PROGRESSIVE:
-        ok[row] = []
+        if row not in table:
+            continue
+        ok[row], ok3[row] = [], []
         for i, b in enumerate(BUDGETS):
             p = table[row][i]
             others = [v[i] for k, v in table.items() if not k.startswith("progressive") and v[i] is not None]
             ok[row].append(p is not None and all(p <= o for o in others))
+            ok3[row].append(p is not None and all(round(p, 3) <= round(o, 3) for o in others))
         log(f"    {row} at or below every other model: "
-            + " ".join(f"{b}:{'yes' if o else 'NO'}" for b, o in zip(BUDGETS, ok[row])))
-    return dict(name=name, curves=curves, ok=ok, unit=unit)
+            + " ".join(f"{b}:{'yes' if o else ('tie' if t else 'NO')}" for b, o, t in zip(BUDGETS, ok[row], ok3[row])))
+    return dict(name=name, curves=curves, ok=ok, ok3=ok3, unit=unit)
 
 
 def plot(rows, path):
@@ -212,7 +218,7 @@ def plot(rows, path):
             x = [max(t, 1e-2) for t, _ in pts]
             y = [e for _, e in pts]
             style = "-o" if len(pts) > 1 else "s"
-            ax.loglog(x, y, style, label=label, ms=4, lw=2.2 if label == "progressive" else 1.0)
+            ax.loglog(x, y, style, label=label, ms=4, lw=2.2 if label in ("progressive", "progressive+OIDN") else 1.0)
         ax.axvspan(BUDGETS[0], BUDGETS[-1], color="0.92", zorder=0)
         ax.set_title(f"{row['name']}")
         ax.set_xlabel("camera-move time / VTK EA frame")
@@ -238,10 +244,15 @@ def main(argv=None):
     nf.warm_up(args.scenes[0])
     rows = [run_scene(name, nf.N, nf.SIZE, args.max_spp, args.repeats, log) for name in args.scenes]
     for which in PROGRESSIVE:
-        log(f"\nsummary: {which} at or below every other model's error at each budget (VTK frames)")
+        if which not in rows[0]["ok"]:
+            continue
+        log(f"\nsummary: {which} at or below every other model's error at each budget (VTK frames); in brackets,"
+            " also counting a tie at the table's three decimals ('tie' above: equal when rounded)")
         for b_i, b in enumerate(BUDGETS):
             good = [row["name"] for row in rows if row["ok"][which][b_i]]
-            log(f"  {b:>4d}: {len(good)} of {len(rows)} scenes" + (f" ({', '.join(good)})" if good else ""))
+            ties = [row["name"] for row in rows if row["ok3"][which][b_i] and not row["ok"][which][b_i]]
+            log(f"  {b:>4d}: {len(good)} of {len(rows)} scenes" + (f" ({', '.join(good)})" if good else "")
+                + f" [{len(good) + len(ties)} of {len(rows)}" + (f"; ties: {', '.join(ties)}" if ties else "") + "]")
     plot(rows, out / "progressive.png")
 
 

@@ -16,7 +16,7 @@ import pyvista as pv
 from ..inputs.camera import Camera
 from ..inputs.validation import check_int, check_real, check_window_size
 from ..rendering.presets import DEFAULT_SPP
-from ..rendering.renderer import Renderer, refined_picture
+from ..rendering.renderer import Renderer, progressive_picture
 from ..rendering.request import warn_unused_lights
 from ..rendering.result import RenderResult
 from ..stages.reference import Accumulator
@@ -328,20 +328,25 @@ class AmbientVolume:
         done = 0 if acc is None else acc.samples
         total = int(self.options.get("samples_per_pixel", DEFAULT_SPP))
         n = max(2, min(self.interactive_samples, total - done))
-        extra = {"unbiased": True} if self.model == "progressive" else {}  # averaged first, thresholded after
+        # progressive: averaged first (unbiased), thresholded or denoised after
+        extra = {"unbiased": True, "denoise": False} if self.model == "progressive" else {}
         res = self._render_volume(cam, size, samples_per_pixel=n, seed=int(self.options.get("seed", 0)) + k,
                                   target_error=None, **extra)
         if acc is None:
             acc = self._accumulator = Accumulator()
+            self._halves = (Accumulator(), Accumulator())  # even and odd passes: denoise's held-out halves
             self._refine_view = (cam, size)
         acc.add(res.radiance, res.std_error, res.alpha, samples=n)
+        self._halves[k % 2].add(res.radiance, res.std_error, res.alpha, samples=n)
         mean, se, alpha = acc.mean, acc.std_error, acc.alpha
         meta = dict(res.metadata, spp=acc.samples, passes=acc.passes, relative_error=acc.relative_error)
         if self.model == "progressive" and not self.options.get("unbiased", False):
-            # the mean of all passes so far, its correction kept where it stands out (docs/progressive.rst)
+            # the mean of all passes so far, its correction kept where it stands out — or, with
+            # denoise, denoised where the held-out halves say it is closer (docs/progressive.rst)
             base = self._render_volume(cam, size, samples_per_pixel=0).radiance  # the view's cached base
-            mean, meta["kept"] = refined_picture(base, mean, se, samples=acc.samples)
-            meta["residual"] = "thresholded"
+            halves = [(h.mean, h.std_error, h.samples) for h in self._halves if h.samples > 0]
+            mean, pm = progressive_picture(base, halves, denoise=bool(self.options.get("denoise", False)))
+            meta.update(pm, denoised=pm["residual"] == "denoised")
         return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
                             metadata=meta, std_error=se.astype(np.float32))
 

@@ -11,6 +11,7 @@ re-runs only the ray cast.
 from __future__ import annotations
 
 import copy
+import math
 import time
 import warnings
 
@@ -23,8 +24,8 @@ from ..inputs.lights import POINT, as_lights, needs_camera, pack_lights
 from ..inputs.transfer import as_transfer_function
 from .._kernels import records as K
 from ..inputs.validation import check_bool, check_choice, check_int, check_real, check_rgb, check_window_size
-from ..stages.reference import EQ_RADIUS, RR_DEPTH
-from ..stages.refine import threshold_correction
+from ..stages.reference import EQ_RADIUS, RR_DEPTH, Accumulator, relative_error
+from ..stages.refine import held_out_z, threshold_correction
 from .cache import SceneCache
 from .presets import (
     ALL_MODELS,
@@ -639,24 +640,54 @@ class Renderer(SceneStages):
                                 std_error=np.zeros_like(nf.radiance))
         kernel_model, _, _, _, lrec, grec, arec, drec = records[0]
         backend = req.backend
+        unbiased, denoise = options.get("unbiased", False), options.get("denoise", False)
+        if unbiased and denoise:
+            raise ValueError("unbiased=True returns the unbiased picture as it is; denoise=True chooses between it "
+                             "denoised and thresholded (docs/progressive.rst): give one of them")
+        if denoise:
+            from ..stages.denoise import available, denoise_radiance
+
+            if not available():
+                denoise_radiance(None)  # raises the ImportError that names the extra
+        target = options.get("target_error")
+
+        def trace(n, target_error, first_sample=0):
+            return path_trace(self.geometry, self.optics, self.majorant(MAJORANT_BLOCK), self.lights, cam, size,
+                              phase=req.phase, samples_per_pixel=n, target_error=target_error,
+                              max_depth=options.get("max_depth"), seed=req.seed, background=req.background,
+                              progress_bar=req.progress_bar is True, light_clamp=0.25 * req.step, backend=backend,
+                              device_cache=self.device_cache if backend == "cuda" else None,
+                              control=(kernel_model, lrec, grec, arec, drec), base=control_image,
+                              first_sample=first_sample)
+
+        control = control_image.astype(np.float64)
         with stage_bar(False if req.progress_bar else req.progress_bar, "residual samples"):
-            out = path_trace(self.geometry, self.optics, self.majorant(MAJORANT_BLOCK), self.lights, cam, size,
-                             phase=req.phase, samples_per_pixel=spp, target_error=options.get("target_error"),
-                             max_depth=options.get("max_depth"), seed=req.seed, background=req.background,
-                             progress_bar=req.progress_bar is True, light_clamp=0.25 * req.step, backend=backend,
-                             device_cache=self.device_cache if backend == "cuda" else None,
-                             control=(kernel_model, lrec, grec, arec, drec), base=control_image)
-        estimate = control_image.astype(np.float64) + out.radiance
-        if options.get("unbiased", False):
-            radiance, kept = estimate, 1.0
-        else:  # the correction where it stands out of its noise (docs/progressive.rst)
-            radiance, kept = refined_picture(nf.radiance, estimate, out.std_error, samples=out.metadata["spp"])
+            if denoise and spp >= 2:  # two halves of one seed's samples: the held-out choice (docs/progressive.rst)
+                out = trace(spp // 2, None if target is None else target * math.sqrt(2.0))
+                na = out.metadata["spp"]
+                other = trace(na if target is not None else spp - na, None, first_sample=na)
+                halves = [(control + o.radiance, o.std_error, o.metadata["spp"]) for o in (out, other)]
+                acc = Accumulator()
+                for o in (out, other):
+                    acc.add(o.radiance, o.std_error, o.alpha, samples=o.metadata["spp"])
+                std_error = acc.std_error.astype(np.float32)
+                out.metadata.update(spp=acc.samples, target_error=target, time=out.metadata["time"] + other.metadata["time"],
+                                    relative_error=relative_error(control + acc.mean, acc.std_error, acc.alpha))
+                radiance, pm = progressive_picture(nf.radiance, halves, denoise=True)
+            else:
+                out = trace(spp, target)
+                std_error = out.std_error
+                estimate = control + out.radiance
+                if unbiased:
+                    radiance, pm = estimate, dict(kept=1.0, residual="unbiased")
+                else:  # the correction where it stands out of its noise (docs/progressive.rst)
+                    radiance, pm = progressive_picture(nf.radiance, [(estimate, out.std_error, out.metadata["spp"])])
         radiance = radiance.astype(np.float32)
-        meta.update(residual="unbiased" if options.get("unbiased", False) else "thresholded", kept=kept)
+        meta.update(pm, denoised=pm["residual"] == "denoised")
         meta.update({k: out.metadata[k] for k in ("spp", "seed", "max_depth", "target_error", "relative_error",
                                                   "light_clamp", "rr_depth", "equiangular")})
         meta.update(time_samples=out.metadata["time"], time_render=time.perf_counter() - t_start - meta["time_prepare"])
-        return RenderResult(radiance=radiance, alpha=nf.alpha, camera=cam, metadata=meta, std_error=out.std_error)
+        return RenderResult(radiance=radiance, alpha=nf.alpha, camera=cam, metadata=meta, std_error=std_error)
 
     def albedo_guide(self, camera, window_size, *, step=None) -> np.ndarray:
         """The albedo guide of :func:`pv_ambient.stages.denoise.denoise_radiance`: (H, W, 3) float32 in [0, 1].
@@ -703,6 +734,89 @@ def refined_picture(base, estimate, std_error, samples=None):
     corr, kept = threshold_correction(np.asarray(estimate, dtype=np.float64) - b,
                                       np.asarray(std_error, dtype=np.float64) ** 2, samples=samples)
     return b + corr, kept
+
+
+#: The held-out z statistic (:func:`pv_ambient.stages.refine.held_out_z`) below which the
+#: ``progressive`` model's denoised picture replaces its thresholded one: 1 standard error (a
+#: one-sided false alarm of 16 % for Gaussian noise where the two are equally good, where the
+#: choice costs nothing; a margin against heavy-tailed noise elsewhere; docs/progressive.rst).
+HELD_OUT_Z = 1.0
+
+
+def denoise_guide(base) -> np.ndarray:
+    """The guide OIDN gets beside a ``progressive`` picture: the base model's noise-free picture
+    scaled by its 99th percentile and clipped to [0, 1] (float32) — its edges and shading are the
+    picture's, so the denoiser keeps them (docs/progressive.rst, "Denoising").
+
+    >>> import numpy as np
+    >>> float(denoise_guide(np.linspace(0.0, 2.0, 300).reshape(10, 10, 3)).max())
+    1.0
+    """
+    b = np.nan_to_num(np.asarray(base, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    scale = float(np.percentile(b, 99))
+    if scale <= 0.0:
+        scale = float(b.max())
+    return np.clip(b / scale if scale > 0.0 else np.zeros_like(b), 0.0, 1.0).astype(np.float32)
+
+
+def progressive_picture(base, halves, *, denoise=False, denoiser=None):
+    """The ``progressive`` model's picture from its samples given as up to two independent halves
+    ``[(estimate, std_error, samples), ...]`` (``estimate``: the unbiased picture ``P`` of that
+    half). Returns ``(picture, metadata)``: the float64 picture and ``kept`` (the share of
+    pixel-level details kept), ``residual`` (``"thresholded"`` or ``"denoised"``) and, with
+    ``denoise`` and two halves, ``held_out_z`` (the statistic of the choice).
+
+    Without ``denoise`` it is :func:`refined_picture` of all the samples. With it, a second
+    candidate is the unbiased ``P`` denoised — ``denoiser(P, guide)``, by default OIDN
+    (``pyoidn``) guided by the base picture (:func:`denoise_guide`) — rescaled per channel to
+    ``P``'s mean. Both are made again from each half alone, and the denoised one is taken (made
+    from all the samples) only when the held-out halves find it closer by more than
+    ``HELD_OUT_Z`` standard errors (:func:`pv_ambient.stages.refine.held_out_z`). Both tend to
+    ``P``'s limit as samples grow, so the choice does not change what the picture converges to
+    (docs/progressive.rst, "Denoising").
+
+    >>> import numpy as np
+    >>> truth = np.linspace(1.0, 2.0, 16 * 16 * 3).reshape(16, 16, 3)
+    >>> rng = np.random.default_rng(1)
+    >>> halves = [(truth + rng.normal(0, 0.3, truth.shape), np.full(truth.shape, 0.3), 16) for _ in range(2)]
+    >>> pic, meta = progressive_picture(0.5 * truth, halves, denoise=True,   # a denoiser that knows the shape
+    ...                                 denoiser=lambda p, guide: guide * p.mean() / guide.mean())
+    >>> meta["residual"], bool(np.abs(pic - truth).max() < 0.1)
+    ('denoised', True)
+    """
+    from ..stages.reference import Accumulator
+
+    b = np.asarray(base, dtype=np.float64)
+    acc = Accumulator()
+    for est, se, n in halves:
+        acc.add(est, se, np.zeros(b.shape[:2]), samples=n)
+    mean, se = acc.mean, acc.std_error
+    picture, kept = refined_picture(b, mean, se, samples=acc.samples)
+    meta = dict(kept=kept, residual="thresholded")
+    if not denoise or len(halves) != 2:
+        return picture, meta
+    if denoiser is None:
+        from ..stages.denoise import denoise_radiance
+
+        def denoiser(p, guide):
+            return denoise_radiance(p, albedo=guide, mean_preserving=False)
+    from ..stages.denoise import preserve_mean
+
+    guide = denoise_guide(b)
+
+    def denoised(p):
+        d = np.asarray(denoiser(p, guide), np.float64)
+        return np.asarray(preserve_mean(d, p), np.float64) if np.all(np.sum(p, axis=(0, 1)) > 0) else d
+
+    (ea, sa, na), (eb, sb, nb) = ((np.asarray(e, np.float64), np.asarray(v, np.float64), int(n)) for e, v, n in halves)
+    z = held_out_z((denoised(ea), denoised(eb)),
+                   (refined_picture(b, ea, sa, samples=na)[0], refined_picture(b, eb, sb, samples=nb)[0]),
+                   (ea, eb), (sa * sa, sb * sb))
+    meta["held_out_z"] = z
+    if z < -HELD_OUT_Z:
+        picture = denoised(mean)
+        meta["residual"] = "denoised"
+    return picture, meta
 
 
 def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=None, model="emission_absorption",

@@ -69,7 +69,7 @@ def check_ray_end(ray_end, size):
 #: model: they may be given to every model (one scene, many models) without a warning.
 OPTION_MODELS = {
     "samples_per_pixel": ("path_traced", "progressive"), "target_error": ("path_traced", "progressive"),
-    "max_depth": ("path_traced", "progressive"), "denoise": ("path_traced",),
+    "max_depth": ("path_traced", "progressive"), "denoise": ("path_traced", "progressive"),
     "flux_limited": ("diffusion", "progressive"), "sweep_orders": ("diffusion", "progressive"),
     "propagation": ("ambient_scattering", "progressive"), "base_model": ("progressive",), "unbiased": ("progressive",),
     "radius": ("ambient_occlusion", "ambient_scattering", "progressive"), "ambient_radiance": ("ambient_occlusion",),

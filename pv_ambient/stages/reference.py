@@ -71,7 +71,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
                phase=None, target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
                batch=16, light_clamp=None, rr_depth=RR_DEPTH, backend="cpu", time_limit=None,
                device_cache=None, equiangular=True, equiangular_radius=None, control=None,
-               base=None) -> Traced:
+               base=None, first_sample=0) -> Traced:
     """Trace the unbiased reference image of a scene (:meth:`pv_ambient.Renderer.path_trace` is the
     public entry point; it passes its cached arrays).
 
@@ -143,6 +143,11 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     base : numpy.ndarray, optional
         With ``control``: the model's picture (H, W, 3), to which the relative error (and
         ``target_error``) refers — the residual's own mean is near zero.
+    first_sample : int, default: 0
+        Index of the first sample of every pixel: the random numbers are keyed by (seed, pixel,
+        sample), so samples ``[k, k + n)`` of one seed continue a render of its first ``k`` — two
+        calls ``(n1, 0)`` and ``(n2, n1)`` trace exactly the samples of one call with ``n1 + n2``
+        (the ``progressive`` model's held-out halves, docs/progressive.rst).
     """
     from .._kernels import records as K
     from .._kernels.pathtrace import pathtrace_image
@@ -155,6 +160,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     target = None if target_error is None else check_real(target_error, "target_error", lo=0.0, lo_open=True)
     depth = _NO_LIMIT if max_depth is None else check_int(max_depth, "max_depth", lo=1)
     seed = check_int(seed, "seed", lo=0)
+    first = check_int(first_sample, "first_sample", lo=0)
     bg = check_rgb(background, "background")
     block = check_int(block, "block", lo=1)
     rr_depth = check_int(rr_depth, "rr_depth", lo=0)
@@ -213,9 +219,9 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
                             break
                         s1 = min(s1, n + fit)
                 if sums is None:
-                    kernel(*args, n, s1, 0, h, sum_rad, sum_sq, sum_hit)
+                    kernel(*args, first + n, first + s1, 0, h, sum_rad, sum_sq, sum_hit)
                 else:
-                    bk.pathtrace(device_cache, args, n, s1, sums)
+                    bk.pathtrace(device_cache, args, first + n, first + s1, sums)
                 if bar is not None:
                     bar.update(s1 - n)
                 n = s1
@@ -236,6 +242,7 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
     if target is None or not np.isfinite(rel):
         rel = relative_error(mean if base is None else mean + base, se, alpha)
     meta = {"model": "path_traced", "spp": n, "time": time.perf_counter() - t_start, "seed": seed,
+            "first_sample": first,
             "max_depth": max_depth, "target_error": target, "relative_error": rel, "window_size": size,
             "phase": repr(ph), "lights": len(lights), "background": bg.tolist(),
             "light_clamp": light_clamp, "majorant_block": block, "rr_depth": rr_depth, "batch": batch,
