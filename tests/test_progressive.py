@@ -163,3 +163,86 @@ def test_bad_arguments_name_what_was_wrong():
             r.render(window_size=SIZE, model="path_traced", denoise=bad)
     with pytest.warns(UserWarning, match="base_model"):
         r.render(window_size=SIZE, model="diffusion", base_model="diffusion")
+
+
+def test_halves_of_one_seed_are_its_samples():
+    """``first_sample`` continues a seed's random numbers: samples [0, 3) and [3, 8) of a seed,
+    pooled, are the samples of one 8-sample render of it (the progressive model's held-out halves
+    are therefore exactly the samples its thresholded picture uses)."""
+    from pv_ambient.stages.reference import Accumulator
+
+    r, g = _cloud()
+    cam = r.render(window_size=SIZE, model="emission_absorption").camera
+    whole = r.path_trace(cam, SIZE, phase=g, samples_per_pixel=8, seed=5)
+    acc = Accumulator()
+    for n, first in ((3, 0), (5, 3)):
+        part = r.path_trace(cam, SIZE, phase=g, samples_per_pixel=n, seed=5, first_sample=first)
+        assert part.metadata["first_sample"] == first
+        acc.add(part.radiance, part.std_error, part.alpha, samples=n)
+    assert whole.radiance.max() > 0.01
+    np.testing.assert_allclose(acc.mean, whole.radiance, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(acc.std_error, whole.std_error, rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(acc.alpha, whole.alpha, rtol=1e-6, atol=0)
+    part = r.path_trace(cam, SIZE, phase=g, samples_per_pixel=5, seed=5, first_sample=0)
+    assert not np.allclose(part.radiance, r.path_trace(cam, SIZE, phase=g, samples_per_pixel=5, seed=5,
+                                                             first_sample=3).radiance)
+
+
+DENOISE_SIZE = (32, 24)  # enough 4×4 blocks for the held-out halves to tell pictures apart
+
+
+def _stand_in_denoiser(monkeypatch, fn):
+    """OIDN replaced (pyoidn is an optional extra): ``fn(radiance, albedo)`` as ``denoise_radiance``."""
+    from pv_ambient.stages import denoise
+
+    monkeypatch.setattr(denoise, "available", lambda: True)
+    monkeypatch.setattr(denoise, "denoise_radiance",
+                        lambda radiance, albedo=None, quality="high", mean_preserving=True: fn(radiance, albedo))
+
+
+def test_denoise_chooses_an_oracle_and_keeps_the_unbiased_mean(monkeypatch):
+    """``denoise=True`` with a stand-in denoiser that returns (nearly) the converged picture — the
+    model's own unbiased picture at 4096 samples, another seed — whatever it is given. With
+    single scattering as the base (block error 2.7 against that picture in this high-albedo
+    cloud) and 8 samples, the thresholded picture is still close to its base, and the held-out
+    halves (4 samples each) must find the stand-in closer by more than 2 standard errors; the
+    picture is then that image rescaled to the unbiased picture's mean per channel (equal to
+    1e-5: the mean stays the samples' unbiased one)."""
+    r, g = _cloud()
+    opts = dict(window_size=DENOISE_SIZE, model="progressive", base_model="single_scattering", phase=g)
+    truth = r.render(samples_per_pixel=4096, seed=11, unbiased=True, **opts).radiance
+    _stand_in_denoiser(monkeypatch, lambda radiance, albedo: truth)
+    res = r.render(samples_per_pixel=8, seed=2, denoise=True, **opts)
+    unb = r.render(samples_per_pixel=8, seed=2, unbiased=True, **opts)
+    assert res.metadata["residual"] == "denoised" and res.metadata["denoised"], res.metadata["held_out_z"]
+    assert res.metadata["held_out_z"] < -2
+    np.testing.assert_allclose(res.radiance.mean(axis=(0, 1)), unb.radiance.mean(axis=(0, 1)), rtol=1e-5)
+    scale = unb.radiance.astype(np.float64).sum(axis=(0, 1)) / truth.astype(np.float64).sum(axis=(0, 1))
+    np.testing.assert_allclose(res.radiance, truth * scale, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(res.std_error, unb.std_error, rtol=1e-4)  # the samples' own standard error
+
+
+def test_denoise_rejects_a_bad_denoiser_and_keeps_the_thresholded_picture(monkeypatch):
+    """A stand-in denoiser that makes the picture worse (a flat grey at its mean) must lose the
+    held-out comparison: the picture is then exactly the thresholded one of ``denoise=False``
+    with the same seed (the halves are that render's samples), up to float32 rounding."""
+    r, g = _cloud()
+    _stand_in_denoiser(monkeypatch, lambda radiance, albedo: np.full_like(radiance, radiance.mean()))
+    plain = r.render(window_size=DENOISE_SIZE, model="progressive", phase=g, samples_per_pixel=32, seed=2)
+    res = r.render(window_size=DENOISE_SIZE, model="progressive", phase=g, samples_per_pixel=32, seed=2, denoise=True)
+    assert res.metadata["residual"] == "thresholded" and res.metadata["held_out_z"] > 1
+    np.testing.assert_allclose(res.radiance, plain.radiance, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(res.std_error, plain.std_error, rtol=1e-4, atol=1e-7)
+    assert res.metadata["spp"] == plain.metadata["spp"] == 32
+
+
+def test_denoise_argument_errors(monkeypatch):
+    r, g = _cloud()
+    with pytest.raises(ValueError, match="unbiased=True"):
+        r.render(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=4, denoise=True, unbiased=True)
+    from pv_ambient.stages import denoise
+
+    monkeypatch.setattr(denoise, "available", lambda: False)
+    monkeypatch.setattr(denoise, "_import_pyoidn", lambda: (_ for _ in ()).throw(ImportError("pv_ambient[denoise]")))
+    with pytest.raises(ImportError, match="denoise"):
+        r.render(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=4, denoise=True)

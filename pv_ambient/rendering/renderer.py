@@ -493,7 +493,7 @@ class Renderer(SceneStages):
     def path_trace(self, camera=None, window_size=None, *, phase=None, samples_per_pixel=DEFAULT_SPP,
                    target_error=None, max_depth=None, seed=0, background=(0.0, 0.0, 0.0), progress_bar=False,
                    batch=16, light_clamp=None, majorant_block=MAJORANT_BLOCK, rr_depth=RR_DEPTH, backend=None,
-                   time_limit=None, equiangular=True) -> RenderResult:
+                   time_limit=None, equiangular=True, first_sample=0) -> RenderResult:
         """Render the unbiased path-traced reference of this scene (no denoising; ``render(model=
         "path_traced")`` is the same with the quality presets and the denoiser).
 
@@ -510,7 +510,8 @@ class Renderer(SceneStages):
         **others
             As :func:`pv_ambient.stages.reference.path_trace` (``phase``, ``samples_per_pixel``,
             ``target_error``, ``max_depth``, ``seed``, ``background``, ``progress_bar``, ``batch``,
-            ``light_clamp``, ``rr_depth``, ``time_limit``, ``equiangular``).
+            ``light_clamp``, ``rr_depth``, ``time_limit``, ``equiangular``, ``first_sample``: with
+            one seed, ``samples_per_pixel=n2, first_sample=n1`` continues a render of ``n1``).
 
         Returns
         -------
@@ -542,7 +543,7 @@ class Renderer(SceneStages):
                          max_depth=max_depth, seed=seed, background=background, progress_bar=progress_bar,
                          batch=batch, light_clamp=light_clamp, rr_depth=rr_depth, backend=backend,
                          time_limit=time_limit, device_cache=self.device_cache if backend == "cuda" else None,
-                         equiangular=equiangular)
+                         equiangular=equiangular, first_sample=first_sample)
         reached, target = out.metadata.get("relative_error"), out.metadata.get("target_error")
         if target is not None and time_limit is None and not reached <= target:
             warnings.warn(f"target_error={target:g} was not reached: the relative error is {reached:.3g} after "
