@@ -227,3 +227,43 @@ def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
     np.testing.assert_allclose(vol.volume_result.radiance, shown, rtol=1e-5, atol=1e-6)
     assert np.all(vol.volume_result.std_error >= 0)
     pl.close()
+
+
+def test_progressive_denoise_takes_even_and_odd_passes_as_its_halves(scene, monkeypatch):
+    """``progressive`` with ``denoise=True`` in interactive mode: the even and odd refinement passes
+    are the held-out halves — after three passes of 2 samples (seeds 0, 1, 2) the picture is
+    :func:`progressive_picture` of passes 0 and 2 pooled against pass 1 (a stand-in denoiser: OIDN
+    is an optional extra)."""
+    from pv_ambient.rendering.renderer import progressive_picture
+    from pv_ambient.stages import denoise
+    from pv_ambient.stages.reference import Accumulator
+
+    def blur(radiance, albedo=None, quality="high", mean_preserving=True):
+        from scipy.ndimage import uniform_filter
+        return uniform_filter(np.asarray(radiance, np.float64), size=(3, 3, 1))
+
+    from pv_ambient.rendering import renderer
+
+    monkeypatch.setattr(denoise, "available", lambda: True)
+    monkeypatch.setattr(denoise, "denoise_radiance", blur)
+    monkeypatch.setattr(renderer, "HELD_OUT_MIN_SAMPLES", 2)  # a choice from these few samples (default 16)
+    grid, tf, lights = scene
+    pl = _plotter()
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="progressive", interactive=True,
+                                interactive_resolution=1.0, samples_per_pixel=6, interactive_samples=2, denoise=True)
+    r = vol.renderer
+    while vol.refine():
+        pass
+    meta = vol.volume_result.metadata
+    assert meta["spp"] == 6 and "held_out_z" in meta and meta["residual"] in ("thresholded", "denoised")
+    base = r.render(camera=pl.camera, window_size=SIZE, model="progressive", samples_per_pixel=0).radiance
+    parts = [r.render(camera=pl.camera, window_size=SIZE, model="progressive", samples_per_pixel=2, seed=s,
+                      unbiased=True) for s in range(3)]
+    even, odd = Accumulator(), Accumulator()
+    for k, p in enumerate(parts):
+        (even, odd)[k % 2].add(p.radiance, p.std_error, p.alpha, samples=2)
+    shown, pm = progressive_picture(base, [(even.mean, even.std_error, 4), (odd.mean, odd.std_error, 2)], denoise=True)
+    assert pm["residual"] == meta["residual"]
+    np.testing.assert_allclose(meta["held_out_z"], pm["held_out_z"], rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(vol.volume_result.radiance, shown, rtol=1e-5, atol=1e-6)
+    pl.close()

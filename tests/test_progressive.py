@@ -205,9 +205,13 @@ def test_denoise_chooses_an_oracle_and_keeps_the_unbiased_mean(monkeypatch):
     model's own unbiased picture at 4096 samples, another seed — whatever it is given. With
     single scattering as the base (block error 2.7 against that picture in this high-albedo
     cloud) and 8 samples, the thresholded picture is still close to its base, and the held-out
-    halves (4 samples each) must find the stand-in closer by more than 2 standard errors; the
+    halves (4 samples each; the minimum lowered to 4 for this) must find the stand-in closer by
+    more than 2 standard errors; the
     picture is then that image rescaled to the unbiased picture's mean per channel (equal to
     1e-5: the mean stays the samples' unbiased one)."""
+    from pv_ambient.rendering import renderer
+
+    monkeypatch.setattr(renderer, "HELD_OUT_MIN_SAMPLES", 4)  # the choice at 4 samples per half (default 16)
     r, g = _cloud()
     opts = dict(window_size=DENOISE_SIZE, model="progressive", base_model="single_scattering", phase=g)
     truth = r.render(samples_per_pixel=4096, seed=11, unbiased=True, **opts).radiance
@@ -234,6 +238,20 @@ def test_denoise_rejects_a_bad_denoiser_and_keeps_the_thresholded_picture(monkey
     np.testing.assert_allclose(res.radiance, plain.radiance, rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(res.std_error, plain.std_error, rtol=1e-4, atol=1e-7)
     assert res.metadata["spp"] == plain.metadata["spp"] == 32
+
+
+def test_denoise_makes_no_choice_below_the_minimum_samples(monkeypatch):
+    """Fewer than ``HELD_OUT_MIN_SAMPLES`` per half (here 8 samples: 4 per half): no choice is made,
+    not even with a denoiser that returns the converged picture — the picture is the thresholded
+    one of ``denoise=False``."""
+    r, g = _cloud()
+    opts = dict(window_size=DENOISE_SIZE, model="progressive", base_model="single_scattering", phase=g)
+    truth = r.render(samples_per_pixel=1024, seed=11, unbiased=True, **opts).radiance
+    _stand_in_denoiser(monkeypatch, lambda radiance, albedo: truth)
+    res = r.render(samples_per_pixel=8, seed=2, denoise=True, **opts)
+    plain = r.render(samples_per_pixel=8, seed=2, **opts)
+    assert res.metadata["residual"] == "thresholded" and "held_out_z" not in res.metadata
+    np.testing.assert_allclose(res.radiance, plain.radiance, rtol=1e-5, atol=1e-6)
 
 
 def test_denoise_argument_errors(monkeypatch):

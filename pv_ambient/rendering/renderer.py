@@ -222,8 +222,10 @@ class Renderer(SceneStages):
               use it as a control variate (docs/progressive.rst): noise-free at
               ``samples_per_pixel=0``, then the base plus the part of the samples' correction
               that stands out of its noise — the path tracer's answer as samples accumulate
-              (``unbiased=True``: the whole correction, unbiased at every count); the base's
-              options, ``samples_per_pixel``, ``target_error``, ``max_depth``, ``unbiased``;
+              (``unbiased=True``: the whole correction, unbiased at every count;
+              ``denoise=True``, with ``pyoidn``: that picture or the unbiased one denoised by
+              OIDN, whichever held-out halves of the samples find closer); the base's options,
+              ``samples_per_pixel``, ``target_error``, ``max_depth``, ``unbiased``, ``denoise``;
             * ``"auto"`` — lit; ``time_budget`` (None).
 
             An option given to a model that does not use it earns a warning. ``auto`` picks the
@@ -742,6 +744,10 @@ def refined_picture(base, estimate, std_error, samples=None):
 #: one-sided false alarm of 16 % for Gaussian noise where the two are equally good, where the
 #: choice costs nothing; a margin against heavy-tailed noise elsewhere; docs/progressive.rst).
 HELD_OUT_Z = 1.0
+#: Samples per pixel each held-out half needs before the choice is made (fewer: the thresholded
+#: picture). With 2–8 samples per pixel a heavy-tailed residual's variances are underestimated
+#: and the statistic misleads (docs/progressive.rst, "Denoising": the measured wrong choices).
+HELD_OUT_MIN_SAMPLES = 16
 
 
 def denoise_guide(base) -> np.ndarray:
@@ -772,7 +778,8 @@ def progressive_picture(base, halves, *, denoise=False, denoiser=None):
     (``pyoidn``) guided by the base picture (:func:`denoise_guide`) — rescaled per channel to
     ``P``'s mean. Both are made again from each half alone, and the denoised one is taken (made
     from all the samples) only when the held-out halves find it closer by more than
-    ``HELD_OUT_Z`` standard errors (:func:`pv_ambient.stages.refine.held_out_z`). Both tend to
+    ``HELD_OUT_Z`` standard errors (:func:`pv_ambient.stages.refine.held_out_z`) and each half
+    has at least ``HELD_OUT_MIN_SAMPLES`` samples per pixel. Both tend to
     ``P``'s limit as samples grow, so the choice does not change what the picture converges to
     (docs/progressive.rst, "Denoising").
 
@@ -794,7 +801,7 @@ def progressive_picture(base, halves, *, denoise=False, denoiser=None):
     mean, se = acc.mean, acc.std_error
     picture, kept = refined_picture(b, mean, se, samples=acc.samples)
     meta = dict(kept=kept, residual="thresholded")
-    if not denoise or len(halves) != 2:
+    if not denoise or len(halves) != 2 or min(int(h[2]) for h in halves) < HELD_OUT_MIN_SAMPLES:
         return picture, meta
     if denoiser is None:
         from ..stages.denoise import denoise_radiance
