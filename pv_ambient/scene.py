@@ -43,7 +43,7 @@ With ``lights`` given, the radiance (``--radiance``) is what 0.2.0 wrote, bit fo
 A model's options go at top level too (``pv_ambient.rendering.presets.SCENE_OPTIONS``:
 ``"samples_per_pixel"``, ``"radius"``, ``"flux_limited"``, ``"sweep_orders"``, …); since
 pv_ambient 0.4.0 (format version unchanged) ``"model": "progressive"`` with its
-``"base_model"`` and ``"unbiased"`` (docs/progressive.rst).
+``"base_model"`` and ``"unbiased"``, and ``"denoise"`` (with ``pyoidn``) (docs/progressive.rst).
 
 Unknown top-level keys are reported with a warning and ignored (a newer file read by an older
 version); unknown keys inside ``camera``, ``lights``, ``transfer_function``, ``image`` and
