@@ -665,7 +665,7 @@ class Renderer(SceneStages):
 
         control = control_image.astype(np.float64)
         with stage_bar(False if req.progress_bar else req.progress_bar, "residual samples"):
-            if denoise and spp >= 2:  # two halves of one seed's samples: the held-out choice (docs/progressive.rst)
+            if denoise and spp >= 2 * HELD_OUT_MIN_SAMPLES:  # two halves of one seed's samples: the held-out choice
                 out = trace(spp // 2, None if target is None else target * math.sqrt(2.0))
                 na = out.metadata["spp"]
                 other = trace(na if target is not None else spp - na, None, first_sample=na)
@@ -795,11 +795,14 @@ def progressive_picture(base, halves, *, denoise=False, denoiser=None):
     from ..stages.reference import Accumulator
 
     b = np.asarray(base, dtype=np.float64)
-    acc = Accumulator()
-    for est, se, n in halves:
-        acc.add(est, se, np.zeros(b.shape[:2]), samples=n)
-    mean, se = acc.mean, acc.std_error
-    picture, kept = refined_picture(b, mean, se, samples=acc.samples)
+    if len(halves) == 1:  # one estimate: as it is
+        mean, se, samples = halves[0]
+    else:
+        acc = Accumulator()
+        for est, err, n in halves:
+            acc.add(est, err, np.zeros(b.shape[:2]), samples=n)
+        mean, se, samples = acc.mean, acc.std_error, acc.samples
+    picture, kept = refined_picture(b, mean, se, samples=samples)
     meta = dict(kept=kept, residual="thresholded")
     if not denoise or len(halves) != 2 or min(int(h[2]) for h in halves) < HELD_OUT_MIN_SAMPLES:
         return picture, meta
