@@ -559,10 +559,9 @@ class Renderer(SceneStages):
     def _path_trace(self, req, options):
         denoise = options.get("denoise", False)
         if denoise:
-            from ..stages.denoise import available, denoise_radiance
+            from ..stages.denoise import denoise_radiance, require
 
-            if not available():
-                denoise_radiance(None)  # raises the ImportError that names the extra
+            require()  # the ImportError that names the extra
         with stage_bar(False if req.progress_bar else req.progress_bar, "path-traced samples"):
             res = self.path_trace(req.camera, req.window_size, phase=req.phase,
                                   samples_per_pixel=options.get("samples_per_pixel", DEFAULT_SPP),
@@ -648,10 +647,9 @@ class Renderer(SceneStages):
             raise ValueError("unbiased=True returns the unbiased picture as it is; denoise=True chooses between it "
                              "denoised and thresholded (docs/progressive.rst): give one of them")
         if denoise:
-            from ..stages.denoise import available, denoise_radiance
+            from ..stages.denoise import require
 
-            if not available():
-                denoise_radiance(None)  # raises the ImportError that names the extra
+            require()  # the ImportError that names the extra
         target = options.get("target_error")
 
         def trace(n, target_error, first_sample=0):

@@ -46,6 +46,12 @@ def available() -> bool:
     return True
 
 
+def require() -> None:
+    """Raise the ImportError that names the optional extra unless :func:`available`."""
+    if not available():
+        _import_pyoidn()
+
+
 def _import_pyoidn():
     try:
         import pyoidn

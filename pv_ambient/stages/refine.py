@@ -174,18 +174,16 @@ def threshold_correction(delta, variance, *, threshold=None, samples=None):
     return r, share
 
 
-
 def _block_means(a, block):
-    """Means of ``block``×``block`` tiles of an ``(H, W, C)`` array (edge tiles: their own pixels)
-    and the tiles' pixel counts ``(h, w, 1)``."""
-    a = np.asarray(a, dtype=np.float64)
-    h, w = a.shape[:2]
-    bh, bw = -(-h // block), -(-w // block)
-    s = np.zeros((bh * block, bw * block) + a.shape[2:])
-    n = np.zeros((bh * block, bw * block))
-    s[:h, :w], n[:h, :w] = a, 1.0
-    s = s.reshape(bh, block, bw, block, *a.shape[2:]).sum(axis=(1, 3))
-    n = n.reshape(bh, block, bw, block).sum(axis=(1, 3))[..., None]
+    """Means of ``block``×``block`` tiles (``block`` a power of two) of an ``(H, W, C)`` array —
+    :func:`_pool`'s 2×2 blocks, repeated (edge tiles: their own pixels) — and the tiles' pixel
+    counts ``(h, w, 1)``."""
+    if block < 1 or block & (block - 1):
+        raise ValueError(f"block must be a power of two, got {block}")
+    s = np.asarray(a, dtype=np.float64)
+    n = np.ones(s.shape[:2] + (1,))
+    while block > 1:
+        s, n, block = _pool(s, "sum"), _pool(n, "sum"), block // 2
     return s / n, n
 
 
