@@ -55,6 +55,23 @@ def test_zero_samples_is_the_base_picture():
     np.testing.assert_array_equal(res.radiance, plain.radiance)  # "preview": plain diffusion
 
 
+def test_times_are_this_calls_own():
+    """``time_prepare + time_render`` is the call's wall time, each part ≥ 0: a second call on the
+    same view takes its base picture from the cache and prepares nothing (the interactive mode's
+    refinement passes) — before, it kept the first call's preparation time and reported a negative
+    ``time_render``."""
+    import time
+
+    r, g = _cloud()
+    for spp in (0, 4, 4, 0):
+        t = time.perf_counter()
+        m = r.render(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=spp, seed=spp).metadata
+        wall = time.perf_counter() - t
+        assert m["time_prepare"] >= 0.0 and m["time_render"] >= 0.0
+        assert m["time_prepare"] + m["time_render"] <= wall
+    assert m["time_prepare"] == 0.0  # the cached base
+
+
 @pytest.mark.parametrize("scene", [_cloud, _lit_inside])
 @pytest.mark.parametrize("base", ["single_scattering", "diffusion"])
 def test_converges_to_the_path_traced_answer(scene, base):

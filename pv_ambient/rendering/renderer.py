@@ -605,7 +605,8 @@ class Renderer(SceneStages):
                req.propagation, req.phase.canonical(), req.light_resolution, req.table_quality, req.bake_lights,
                req.early_termination, req.background.tobytes(), req.backend)
         spp = check_int(options.get("samples_per_pixel", DEFAULT_SPP), "samples_per_pixel", lo=0)
-        if key in self.cache:
+        cached = key in self.cache
+        if cached:
             nf, records, control_image = self.cache[key]
         else:
             records = []
@@ -634,10 +635,11 @@ class Renderer(SceneStages):
                 del self.cache[old]  # one view at a time: a camera move replaces it
         self.cache[key] = (nf, records, control_image)
         t_base = time.perf_counter() - t_start
+        # this call's own preparation: none when the base picture came from the cache
         meta = dict(nf.metadata, model="progressive", requested_model=req.model, base_model=base,
-                    time_base=t_base)
+                    time_base=t_base, time_prepare=0.0 if cached else nf.metadata.get("time_prepare", 0.0))
         if not records or spp == 0:  # the base picture: the first frame (or exact: nothing to march)
-            meta.update(spp=0, relative_error=0.0, time_render=time.perf_counter() - t_start)
+            meta.update(spp=0, relative_error=0.0, time_render=time.perf_counter() - t_start - meta["time_prepare"])
             return RenderResult(radiance=nf.radiance, alpha=nf.alpha, camera=cam, metadata=meta,
                                 std_error=np.zeros_like(nf.radiance))
         kernel_model, _, _, _, lrec, grec, arec, drec = records[0]
