@@ -16,7 +16,8 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   ``path_traced+OIDN``) at 1, 2, 4, … ``--max-spp`` samples per pixel; ``progressive`` (its
   default base: diffusion with 4 transport sweeps and flux limiting) and ``progressive, diffusion
   base`` (plain diffusion) as a user sees them after a camera move: the drag frame, then the
-  resting frames at 0, 1, 2, 4, … samples (the drag frame is its base model's, measured once;
+  resting frames at 0, 1, 2, 4, … samples (the drag frame and the 0-sample resting frame are its
+  base model's, measured once — the same renders, checked to give the same picture;
   as for the noise-free models, the drag frame and each resting frame are timed on their own —
   in interactive mode the drag frames are shown while the camera moves, and the resting frame
   starts when it stops);
@@ -150,10 +151,11 @@ def run_scene(name, n, size, max_spp, repeats, log):
     curves = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unconverged solves etc.: benchmarks/noise_free.py prints them
-        previews = {}
+        previews, bases = {}, {}
         for label, model, opts in NOISE_FREE:
             img, tp = previews[label] = preview(r, cam, size, g, model, opts, repeats)
             res, t = timed(r, cam, size, g, model, opts, repeats)
+            bases[label] = res.radiance
             curves[label] = [(tp / unit, metrics.block_relative_rmse(img, ref, mask)),
                              (t / unit, metrics.block_relative_rmse(res.radiance, ref, mask))]
         pt_models = [("path_traced", "path_traced", {}, 1), ("progressive", "progressive", {}, 0),
@@ -164,10 +166,17 @@ def run_scene(name, n, size, max_spp, repeats, log):
         final = {}
         for label, model, opts, start in pt_models:
             pts = []
-            if model == "progressive":  # its drag frame first (its base's: the same render), then the resting frames
-                img, t0 = previews[PROGRESSIVE[label]]
+            ladder = spp_ladder(max_spp, start)
+            if model == "progressive":  # its drag frame and 0-sample resting frame are its base's (the same
+                img, t0 = previews[PROGRESSIVE[label]]  # renders, measured once), then the resting frames
                 pts.append((t0 / unit, metrics.block_relative_rmse(img, ref, mask)))
-            for spp in spp_ladder(max_spp, start):
+                res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False,
+                               **dict(opts, samples_per_pixel=0))
+                if not np.array_equal(res.radiance, bases[PROGRESSIVE[label]]):
+                    raise RuntimeError(f"{label} at 0 samples is not its base's picture")
+                pts.append(curves[PROGRESSIVE[label]][1])
+                ladder = ladder[1:]
+            for spp in ladder:
                 o = dict(opts, samples_per_pixel=spp, seed=1000 + spp)
                 res, t = timed(r, cam, size, g, model, o, repeats)
                 pts.append((t / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
