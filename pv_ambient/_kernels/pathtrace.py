@@ -365,6 +365,17 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
 
     Returns ``(r, g, b, hit)``: the radiance estimate and 1.0 when the primary ray collided.
     """
+    r, g, b, hit, _, _, _, _ = trace_path_first(view, medium, lights, paths, i, j, width, height, pixel, sample)
+    return r, g, b, hit
+
+
+@scalar
+def trace_path_first(view, medium, lights, paths, i, j, width, height, pixel, sample):
+    """:func:`trace_path`, and where its primary ray first collided: returns ``(r, g, b, hit, t,
+    k0, k1, f)`` with ``t`` the collision's distance along the camera ray and ``(k0, k1, f)`` the
+    medium's table entries there (:func:`.tracking.delta_track`'s; all 0 where ``hit`` is 0) — the
+    ``progressive`` model's control variate evaluates its source at that point
+    (:mod:`.residual`)."""
     cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
     bg, max_depth, rr_depth, seed, eq = paths.bg, paths.max_depth, paths.rr_depth, paths.seed, paths.equiangular
     k = key(seed, pixel, sample)
@@ -379,6 +390,10 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
     hit = 0.0
     depth = 0
     wdir = 1.0  # product of the direction weights p/pdf (Russian roulette leaves them out)
+    t_hit = 0.0
+    k0_hit = 0
+    k1_hit = 0
+    f_hit = 0.0
     while True:
         # Free flight through the medium's box.
         px, py, pz = affine_point(w2i, ox, oy, oz)
@@ -410,6 +425,10 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
             break
         if depth == 0:
             hit = 1.0
+            t_hit = t
+            k0_hit = k0
+            k1_hit = k1
+            f_hit = f
         depth += 1
         x = px + t * qx
         y = py + t * qy
@@ -464,7 +483,7 @@ def trace_path(view, medium, lights, paths, i, j, width, height, pixel, sample):
         ox = wx
         oy = wy
         oz = wz
-    return lr, lg, lb, hit
+    return lr, lg, lb, hit, t_hit, k0_hit, k1_hit, f_hit
 
 
 @scalar(inline=True)

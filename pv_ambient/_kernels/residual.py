@@ -7,9 +7,9 @@ source ``S = a·J + (1 − a)·Le`` (``J`` the model's in-scattered light per un
 :func:`.raycast.lit_source`). The path tracer's first free flight (:mod:`.pathtrace`) samples a
 collision with density ``σt T``; evaluating the same source there, ``C = S(x_t)`` (and ``L_b`` when
 the ray escapes), is an estimate of ``N`` with no other randomness. One residual sample is the
-path sample minus it, computed from the *same* random numbers (the first ``delta_track`` of
-:func:`.pathtrace.trace_path` draws dimensions ``0, 1, …`` of the path's key, and so does
-:func:`control_sample`):
+path sample minus it at the *same* collision (:func:`.pathtrace.trace_path_first` returns where
+the path's primary ray first collided, and :func:`control_at` evaluates the source there — the
+free flight is tracked once):
 
 ``R = X − C``, ``E[R] = L − N_c``,
 
@@ -24,32 +24,24 @@ model is close to the truth — the emission at the first collision cancels exac
 from __future__ import annotations
 
 from ._jit import driver, prange, scalar
-from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .pathtrace import add_sample, trace_path
+from .geometry import affine_point, affine_vector, camera_ray
+from .pathtrace import add_sample, trace_path_first
 from .raycast import lit_source, medium_albedo_emission
-from .rng import key
-from .tracking import delta_track
 
 
 @scalar
-def control_sample(model, view, medium, lights, grid, ambient, diffusion, bg, seed, i, j, width, height, pixel,
-                   sample):
-    """The control variate of path sample (pixel, sample): the first free flight of
-    :func:`.pathtrace.trace_path` (the same random numbers, so the same collision) and the ray-cast
-    ``model``'s source there (``lights``, ``grid``, ``ambient``, ``diffusion``: its records), or the
-    background ``bg`` when the ray leaves the medium. Returns ``(r, g, b)``."""
-    cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
-    k = key(seed, pixel, sample)
+def control_at(model, view, medium, lights, grid, ambient, diffusion, bg, i, j, width, height, hit, t, k0, k1, f):
+    """The control variate of a path sample whose primary ray first collided at distance ``t``
+    (``hit`` 1.0; ``(k0, k1, f)`` the medium's table entries there: what
+    :func:`.pathtrace.trace_path_first` returns): the ray-cast ``model``'s source there
+    (``lights``, ``grid``, ``ambient``, ``diffusion``: its records), or the background ``bg`` where
+    the primary ray left the medium (``hit`` 0). Returns ``(r, g, b)``."""
+    if not hit > 0.0:
+        return bg[0], bg[1], bg[2]
+    cam, w2i = view.cam, view.w2i
     ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, width, height)
     px, py, pz = affine_point(w2i, ox, oy, oz)
     qx, qy, qz = affine_vector(w2i, dx, dy, dz)
-    t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
-    t0 = max(t0, 0.0)
-    if not t0 < t1:
-        return bg[0], bg[1], bg[2]
-    collided, t, sig, k0, k1, f, _ = delta_track(px, py, pz, qx, qy, qz, t0, t1, medium, k, 0)
-    if not collided:
-        return bg[0], bg[1], bg[2]
     x = px + t * qx
     y = py + t * qy
     z = pz + t * qz
@@ -64,14 +56,14 @@ def residual_pixel(view, medium, lights, paths, cmodel, clights, cgrid, cambient
                    sum_sq, sum_hit):
     """Add residual samples ``[s0, s1)`` of pixel (i, j) to the sums (as
     :func:`.pathtrace.pathtrace_pixel` adds path samples): path sample minus
-    :func:`control_sample` of ray-cast model ``cmodel`` with its Lights, LightGrid, Ambient and
+    :func:`control_at` its first collision, of ray-cast model ``cmodel`` with its Lights, LightGrid, Ambient and
     Diffusion records (flat arguments: a parallel driver takes no nested records)."""
     H, W = sum_hit.shape
     pixel = j * W + i
     for s in range(s0, s1):
-        r, gg, b, h = trace_path(view, medium, lights, paths, i, j, W, H, pixel, s)
-        cr, cg, cb = control_sample(cmodel, view, medium, clights, cgrid, cambient, cdiffusion, paths.bg, paths.seed,
-                                    i, j, W, H, pixel, s)
+        r, gg, b, h, t, k0, k1, f = trace_path_first(view, medium, lights, paths, i, j, W, H, pixel, s)
+        cr, cg, cb = control_at(cmodel, view, medium, clights, cgrid, cambient, cdiffusion, paths.bg, i, j, W, H,
+                                h, t, k0, k1, f)
         add_sample(sum_rad, sum_sq, sum_hit, j, i, r - cr, gg - cg, b - cb, h)
 
 
