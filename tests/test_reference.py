@@ -828,7 +828,8 @@ def test_directions_about_the_light_reproduce_the_phase_function():
 def test_angles_about_the_light_follow_the_mixture_density(sig_vertex, sig_light):
     # The unweighted angle θ_l between a scattered direction and the light, isotropic phase function
     # (its directions give cos θ_l uniform): CDF (1 − CONE_SHARE)(1 − cos θ)/2 + CONE_SHARE [(1 − s)
-    # θ/π + s ln(θ/θ_min)/ln(π/θ_min) for θ ≥ θ_min], θ_min = atan(clamp/r), s = LOG_SHARE σ_l/(σ_l
+    # θ/π + s F(θ)], F(θ) = (min(θ, θ_min)/θ_min + ln(max(θ, θ_min)/θ_min))/(1 + ln(π/θ_min)) (the
+    # density ∝ 1/max(θ, θ_min)), θ_min = atan(clamp/r), s = LOG_SHARE σ_l/(σ_l
     # + σ) (σ_l at the light, σ at the vertex), written here from the docstring. Kolmogorov–Smirnov
     # over 100k samples (false alarm 1e-4); the log-uniform part is what puts ≥ 5 % of them within
     # 10 θ_min (the uniform angle: 0.2 %), and a light in empty space gets none of it.
@@ -849,7 +850,8 @@ def test_angles_about_the_light_follow_the_mixture_density(sig_vertex, sig_light
 
     def cdf(t):
         t = np.asarray(t, float)
-        log_part = np.where(t >= th_min, np.log(np.maximum(t, th_min) / th_min) / math.log(math.pi / th_min), 0.0)
+        log_part = ((np.minimum(t, th_min) / th_min + np.log(np.maximum(t, th_min) / th_min))
+                    / (1.0 + math.log(math.pi / th_min)))
         return (1 - CONE_SHARE) * (1 - np.cos(t)) / 2 + CONE_SHARE * ((1 - share) * t / math.pi + share * log_part)
 
     assert stats.kstest(theta, cdf).pvalue > 1e-4
