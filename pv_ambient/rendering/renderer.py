@@ -792,8 +792,6 @@ def progressive_picture(base, halves, *, denoise=False, denoiser=None):
     >>> meta["residual"], bool(np.abs(pic - truth).max() < 0.1)
     ('denoised', True)
     """
-    from ..stages.reference import Accumulator
-
     b = np.asarray(base, dtype=np.float64)
     if len(halves) == 1:  # one estimate: as it is
         mean, se, samples = halves[0]
