@@ -749,7 +749,8 @@ def test_equiangular_changes_nothing_without_point_lights():
 
 def _agrees_with_free_flight_in_a_blob(albedo, seeds, **kw):
     # A point light inside a thin heterogeneous blob (every segment and scattered direction within
-    # the equiangular radius, so distances and directions about the light are both sampled), HG
+    # the equiangular radius, so distances, directions about the light and splitting near it are all
+    # sampled), HG
     # g = 0.4, a light clamp of 0.05 so that free flight alone has a finite variance: with and
     # without equiangular sampling, 1024 spp, independent seeds. Per pixel |z| < 3.29 (0.1 %) with
     # at most one failure among the 64 pixels (false alarm 0.2 %); the image means within 3σ (0.27 %).
@@ -770,8 +771,28 @@ def _agrees_with_free_flight_in_a_blob(albedo, seeds, **kw):
 
 
 def test_equiangular_and_directions_about_the_light_match_free_flight_at_depth():
-    # Depth 3 (it ends before the first roulette, after rr_depth = 3 collisions).
+    # Depth 3 (it ends before the first roulette, after rr_depth = 3 collisions). Copies of a path
+    # split near the light (pathtrace.split_count) that kept its whole throughput fail this (15 of 64
+    # pixels).
     _agrees_with_free_flight_in_a_blob([0.9, 0.7, 0.5], (31, 32), max_depth=3)
+
+
+def test_split_count_is_the_weight_window():
+    # pathtrace.split_count: ⌈β R / (SPLIT_WINDOW d)⌉ copies within R of a point light, capped at
+    # SPLIT_MAX, exactly 1 where that is ≤ 1, outside R, on the light, or for a directional light.
+    from pv_ambient._kernels import records as K
+    from pv_ambient._kernels.pathtrace import SPLIT_MAX, SPLIT_WINDOW, split_count
+
+    point = K.Lights(np.array([0, 1], np.int64), np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.ones((2, 3)), 1,
+                     0.0, 1e-6)
+    sun = point._replace(kind=np.array([1, 1], np.int64))
+    R = 1.0
+    for beta, d, n in [(0.5, 0.1, math.ceil(0.5 / (SPLIT_WINDOW * 0.1))), (0.05, 0.1, 1), (1.0, 1e-4, SPLIT_MAX),
+                       (1.0, 1.5, 1), (1.0, 0.0, 1)]:
+        assert split_count(point, d, 0.0, 0.0, R, beta) == n, (beta, d)
+        assert split_count(sun, d, 0.0, 0.0, R, beta) == 1
+    assert split_count(point, 0.3, 0.0, 0.0, R, 0.6 * SPLIT_WINDOW) == 2  # β R/d = 2
+    assert split_count(point, 0.3, 0.0, 0.0, R, 0.3 * SPLIT_WINDOW) == 1  # exactly 1: no split
 
 
 def test_roulette_near_the_light_keeps_the_estimate():
