@@ -10,7 +10,8 @@ equiangular sampling (combined with it by MIS) cancels the ``1/d²``.
 Printed, per estimator at ``--spp`` samples per pixel over ``--seeds`` seeds (timed, medians):
 
 * the largest pixel / reference ratio outside a 13×13 window around the light's projection, over
-  the pixels whose reference is ≥ 10 % of the image mean (mean over channels): fireflies;
+  the pixels whose reference is ≥ 10 % of the image mean (mean over channels): fireflies; and how
+  many seeds have a pixel above 5× its reference;
 * the 4×4-block relative RMSE against the reference (the same window masked), its median and
   largest value over the seeds and their ratio (how much one unlucky seed costs);
 * for free flight alone, the same at equal time: the sample count that takes as long as the
@@ -111,6 +112,8 @@ def main(argv=None):
         med = np.median(a[:, 1])
         print(f"  {name:32s} {spp:>5} {np.median(a[:, 0]):>7.3f} {a[:, 2].max():>9.1f} {med:>9.3f}"
               f" {a[:, 1].max():>9.3f} {a[:, 1].max() / med:>7.2f} {np.median(a[:, 3]):>+12.3f}")
+    print(f"  seeds with a pixel above 5× its reference: "
+          + ", ".join(f"{name} {int(np.sum(a[:, 2] > 5))} of {len(a)}" for name, _, a in rows[:2]))
     eq, same = rows[0][2], rows[2][2]
     gain = np.median(same[:, 1]) / np.median(eq[:, 1])
     print("\ntargets (issue 19, acceptance 1):")
