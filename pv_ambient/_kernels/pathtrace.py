@@ -80,17 +80,18 @@ bitwise as without them.
    ``max_depth = 1`` is single scattering (NEE at the first collision only) plus the
    emission–absorption term.
 7. **Splitting near a point light** (``paths.equiangular``): what a path gathers at a vertex ``d``
-   from a point light grows as ``β/d`` (the equiangular and next-event terms after the directions
-   about the light, item 5), so a path that reaches the light's neighbourhood with much of its
-   throughput left makes a firefly. At a collision within ``R`` of a point light whose largest
-   throughput ``β`` exceeds ``SPLIT_WINDOW · d/R`` the path continues as
+   from a point light grows as ``β/d`` (its equiangular and next-event terms, once the directions
+   about the light have turned a segment's ``1/D`` into ``1/r``), so a path that reaches the
+   light's neighbourhood with much of its throughput left makes a firefly. At a collision within
+   ``R`` of a point light whose largest throughput ``β`` exceeds ``SPLIT_WINDOW · d/R`` the path
+   continues as
    ``n = ⌈β R / (SPLIT_WINDOW d)⌉`` copies (at most :data:`SPLIT_MAX`; a weight window,
    as in particle transport's splitting by importance, with importance ``R/d``), each with
    ``β/n`` and ``w/n`` (so the roulette's ``q`` is unchanged) and its own random numbers; a copy may
    split once more, a copy of a copy not. Any ``n`` fixed by the path so far keeps the estimator
    unbiased; without point lights within ``R`` no path splits and the pictures are bit for bit
    as without it. Light-in-core scene (48², 64 spp, seeds 1–80): median 4×4-block error 0.221 →
-   0.178 at 1.2× the time (≈ 25 % less error at equal time), median largest pixel / reference 3.35 →
+   0.178 at 1.2× the time (≈ 10 % less error at equal time), median largest pixel / reference 3.35 →
    3.12, seeds with a pixel above 5× its reference 3 → 1 (docs/path_tracer.rst).
 
 Each path also reports whether its primary ray collided (an unbiased estimate of the primary
@@ -124,21 +125,21 @@ EQ_D_MIN = 1e-12
 #: the roulette of :func:`rr_boost`, seeds 1–40: pixels above 5× their reference 23 at 0.5, 9–10 at
 #: 0.7, 17 at 0.8; the rest is taken from the phase function, which forward-scattering media need).
 CONE_SHARE = 0.7
-#: Of the directions about a light, the share whose angle θ to it has density ∝ 1/max(θ, θ_min) on [0, π]
-#: (θ_min the light clamp's angle; log-uniform above it) rather than uniform on [0, π], where the medium is densest at the
-#: light (scaled by :func:`log_share`). Light-in-core scene, 48², 64 spp, seeds 1–8, fixed share:
-#: median block error 0.58 at 0, 0.336 at 0.5, 0.335 at 0.7 but its worst seed 0.49 against 0.38;
-#: with :func:`rr_boost`, CONE_SHARE 0.7, seeds 1–80: seeds whose largest pixel exceeds 5× its
-#: reference 7 at 0.5, 4 at 0.7 (pixels above 3× 131 → 99).
+#: Of the directions about a light, the share whose angle θ to it has density ∝ 1/max(θ, θ_min) on
+#: [0, π] (θ_min the light clamp's angle; log-uniform above it) rather than uniform on [0, π], where
+#: the medium is densest at the light (scaled by :func:`log_share`). Light-in-core scene, 48², 64 spp,
+#: seeds 1–8, fixed share: median block error 0.58 at 0, 0.336 at 0.5, 0.335 at 0.7 but its worst seed
+#: 0.49 against 0.38; with :func:`rr_boost`, CONE_SHARE 0.7, seeds 1–80: seeds whose largest pixel
+#: exceeds 5× its reference 7 at 0.5, 4 at 0.7 (pixels above 3× 131 → 99).
 LOG_SHARE = 0.7
 #: Near a point light (within the equiangular radius R, at distance d) the roulette's survival
 #: probability is multiplied by (RR_NEAR · R / d)² (module docstring, item 6).
 RR_NEAR = 2.0
 #: Splitting near a point light: a path continues as ⌈β·R/(SPLIT_WINDOW·d)⌉ copies (module docstring, item 7).
 #: Light-in-core scene, 48², 64 spp, seeds 1–80 (benchmarks/light_in_core.py): median 4×4-block error 0.221
-#: without splitting, 0.178 / 0.162 / 0.148 at windows 1 / 0.7 / 0.5 for 1.2 / 1.4 / 1.7× the time; at 1, the
-#: trade's supernova and Marschner–Lobb (light at its centre) lose ~10 % at equal time (their variance is
-#: not made near the light).
+#: without splitting, 0.178 / 0.162 / 0.148 at windows 1 / 0.7 / 0.5 for 1.2 / 1.4 / 1.7× the time; at 1,
+#: variance × time rises ~12 % on the trade's supernova and on Marschner–Lobb (light at its centre), whose
+#: variance is not made next to the light.
 SPLIT_WINDOW = 1.0
 #: Most copies one split makes.
 SPLIT_MAX = 8
@@ -347,8 +348,8 @@ def scatter_direction(wx, wy, wz, dx, dy, dz, sig, view, medium, lights, paths, 
     within ``paths.eq_radius`` of w, from a mixture: with probability :data:`CONE_SHARE` a direction
     about a near light chosen uniformly, its angle θ_l to the light uniform on [0, π]
     (solid-angle pdf ``1/(2π² sin θ_l)``) or, with probability :data:`LOG_SHARE`, with density
-    ``∝ 1/max(θ_l, θ_min)`` on ``[0, π]``, ``θ_min = atan(d_min / r)`` (``d_min`` the light clamp's radius, ``r`` the
-    light's distance), else the phase function (module docstring).
+    ``∝ 1/max(θ_l, θ_min)`` on ``[0, π]``, ``θ_min = atan(d_min / r)`` (``d_min`` the light clamp's
+    radius, ``r`` the light's distance), else the phase function (module docstring).
     Returns ``(dx, dy, dz, weight, dim)``."""
     nlights, radius = lights.kind.shape[0], paths.eq_radius
     near = 0
