@@ -129,11 +129,15 @@ def path_trace(geometry, optics, majorant, lights, camera, window_size, *, sampl
         Also sample each path segment's distance toward every point light equiangularly (Kulla &
         Fajardo 2012) and combine it with the free-flight collision's next-event estimate by
         multiple importance sampling (:mod:`pv_ambient._kernels.pathtrace`): finite variance for
-        a point light inside the medium, where free flight alone gives fireflies. Same expectation
-        either way; no effect (and the same random numbers) without point lights.
+        a point light inside the medium, where free flight alone gives fireflies. Near such a
+        light, scattered directions are also drawn about it, the Russian roulette spares paths
+        and paths that still carry much of their throughput split into copies
+        (docs/path_tracer.rst). Same expectation either way; no effect (and the same random
+        numbers) without point lights.
     equiangular_radius : float, optional
         World distance from a point light within which ``equiangular`` samples distances and
-        directions toward it; default a quarter of the box's diagonal.
+        directions toward it (and boosts the roulette and splits paths); default a quarter of the
+        box's diagonal.
     control : tuple, optional
         A noise-free ray-cast model as a control variate (the ``progressive`` model,
         :mod:`pv_ambient._kernels.residual`): its kernel model id and its Lights, LightGrid,
