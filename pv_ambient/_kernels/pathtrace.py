@@ -320,17 +320,26 @@ def log_share(l, lights, view, medium, sig):
 
 
 @scalar
+def nearest_near_light(lights, wx, wy, wz, radius):
+    """The squared distance from world point w to the nearest point light within ``radius`` of it
+    (:func:`near_light`), ``inf`` where there is none."""
+    d2 = math.inf
+    for l in range(lights.kind.shape[0]):
+        ok, _, _, _, e2 = near_light(l, lights, wx, wy, wz, radius)
+        if ok:
+            d2 = min(d2, e2)
+    return d2
+
+
+@scalar
 def rr_boost(lights, wx, wy, wz, radius):
     """The factor of the roulette's survival probability at world point w: ``(RR_NEAR · R / d)²``
     for the nearest point light within ``R = radius`` (``d`` its distance; ≥ 4), else exactly 1
     (module docstring, item 6)."""
-    g = 1.0
-    rho2 = RR_NEAR * RR_NEAR * radius * radius
-    for l in range(lights.kind.shape[0]):
-        ok, _, _, _, d2 = near_light(l, lights, wx, wy, wz, radius)
-        if ok:
-            g = max(g, rho2 / d2)
-    return g
+    d2 = nearest_near_light(lights, wx, wy, wz, radius)
+    if not d2 < math.inf:
+        return 1.0
+    return RR_NEAR * RR_NEAR * radius * radius / d2
 
 
 @scalar(inline=True)
@@ -429,11 +438,7 @@ def split_count(lights, wx, wy, wz, radius, beta):
     """How many copies a path of largest throughput ``beta`` at world point w continues as: within
     ``R = radius`` of a point light (``d`` the nearest one's distance), ``⌈beta · R / (SPLIT_WINDOW · d)⌉``
     capped at :data:`SPLIT_MAX` where that exceeds 1, else exactly 1 (module docstring, item 7)."""
-    d2 = math.inf
-    for l in range(lights.kind.shape[0]):
-        ok, _, _, _, e2 = near_light(l, lights, wx, wy, wz, radius)
-        if ok:
-            d2 = min(d2, e2)
+    d2 = nearest_near_light(lights, wx, wy, wz, radius)
     if not d2 < math.inf:
         return 1
     v = beta * radius / (SPLIT_WINDOW * math.sqrt(d2))
