@@ -24,8 +24,10 @@ For each scene, at 64×64 pixels and 64³ data points:
   does not match (or ``--recompute-refs``) traces it again.
 * every noise-free model at its defaults (``quality="balanced"``): ``single_scattering``,
   ``ambient_scattering`` with ``propagation="beer_lambert"`` (its default) and ``"tube"``,
-  ``diffusion`` plain, flux-limited and with 4 transport sweeps + flux limiting (``auto``'s choice
-  at ``quality="accurate"``), and ``model="auto"`` (the model it chose in brackets).
+  ``diffusion`` plain, flux-limited and with 4, 6, 8 and 12 transport sweeps + flux limiting
+  (``AUTO_SWEEP_ORDERS`` of them, marked ``*``: ``auto``'s choice at ``quality="accurate"`` and the
+  ``progressive`` model's default base — the count with the lowest worst block error over the six
+  old scenes), and ``model="auto"`` (the model it chose in brackets).
 
 Columns of a scene's table:
 
@@ -76,6 +78,7 @@ import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import metrics  # noqa: E402
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
 
 import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
 
@@ -89,13 +92,16 @@ REF_SPP, REF_ERROR, REF_SEED = 4096, 0.01, 99
 MOVES_DEG = (1.0, 2.0, 3.0)
 
 #: (label, model, options): every noise-free model at its defaults.
+#: The transport sweep counts measured (``AUTO_SWEEP_ORDERS`` among them).
+SWEEP_COUNTS = (4, 6, 8, 12)
 MODELS = (
     ("single_scattering", "single_scattering", {}),
     ("AS beer_lambert", "ambient_scattering", {"propagation": "beer_lambert"}),
     ("AS tube", "ambient_scattering", {"propagation": "tube"}),
     ("diffusion", "diffusion", {}),
     ("diffusion FL", "diffusion", {"flux_limited": True}),
-    ("diffusion 4 sweeps+FL", "diffusion", {"flux_limited": True, "sweep_orders": 4}),
+    *((f"diffusion {k} sweeps+FL" + ("*" if k == AUTO_SWEEP_ORDERS else ""), "diffusion",
+       {"flux_limited": True, "sweep_orders": k}) for k in SWEEP_COUNTS),
     ("auto", "auto", {}),
 )
 

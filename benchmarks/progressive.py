@@ -10,11 +10,11 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   divided by it, so it gets more frames than the models);
 * every model's *camera-move* frames (the view-independent stages — light volumes, diffusion
   solves, bakes — cached, as after a camera move): the noise-free models (single scattering,
-  ambient scattering, diffusion plain / flux-limited / with 4 transport sweeps) once each, and
+  ambient scattering, diffusion plain / flux-limited / with ``AUTO_SWEEP_ORDERS`` transport sweeps) once each, and
   each also as its *drag frame* in interactive mode (half the window per axis, twice the ray
   step, shown on the full-size plane: upsampled linearly, as the texture is); ``path_traced`` (and
   ``path_traced+OIDN``) at 1, 2, 4, … ``--max-spp`` samples per pixel; ``progressive`` (its
-  default base: diffusion with 4 transport sweeps and flux limiting) and ``progressive, diffusion
+  default base: diffusion with those sweeps and flux limiting) and ``progressive, diffusion
   base`` (plain diffusion) as a user sees them after a camera move: the drag frame, then the
   resting frames at 0, 1, 2, 4, … samples (the drag frame and the 0-sample resting frame are its
   base model's, measured once — the same renders, checked to give the same picture;
@@ -58,19 +58,21 @@ import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is o
 import pv_ambient as pa
 import scenes as scene_registry
 from pv_ambient import metrics
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
 from trade import vtk_time
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 BUDGETS = (3, 5, 10, 20, 50, 100)
 #: The progressive rows and their base models' rows (whose drag frame is theirs: the same render).
-PROGRESSIVE = {"progressive": "diffusion 4 sweeps+FL", "progressive+OIDN": "diffusion 4 sweeps+FL",
+SWEEPS = f"diffusion {AUTO_SWEEP_ORDERS} sweeps+FL"
+PROGRESSIVE = {"progressive": SWEEPS, "progressive+OIDN": SWEEPS,
                "progressive, diffusion base": "diffusion"}
 NOISE_FREE = (
     ("single_scattering", "single_scattering", {}),
     ("AS", "ambient_scattering", {}),
     ("diffusion", "diffusion", {}),
     ("diffusion FL", "diffusion", {"flux_limited": True}),
-    ("diffusion 4 sweeps+FL", "diffusion", {"flux_limited": True, "sweep_orders": 4}),
+    (SWEEPS, "diffusion", {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}),
 )
 
 

@@ -21,7 +21,7 @@ ROWS = (
     ("ambient scattering, tube, r = 8 vx", ("ambient_scattering", "tube r=8")),
     ("diffusion", ("diffusion", "plain")),
     ("diffusion, flux-limited", ("diffusion", "flux-limited")),
-    ("diffusion, 4 sweeps + flux-limited", ("diffusion", "4 sweeps + FL")),
+    ("diffusion, {sweeps} + flux-limited", ("diffusion", "sweeps + FL")),  # the run's sweep count
     ("progressive, 0 spp (its first frame)", ("progressive", "0 spp")),
     ("progressive, 64 spp", ("progressive", "64 spp")),
     ("path traced, 4 spp", ("path_traced", "4 spp")),
@@ -31,6 +31,10 @@ ROWS = (
     ("path traced + OIDN, 4 spp", ("path_traced+denoise", "4 spp")),
     ("path traced + OIDN, 64 spp", ("path_traced+denoise", "64 spp")),
 )
+
+
+#: The diffusion row's sweep count as the run labelled it ("8 sweeps"), set by :func:`load`.
+SWEEPS = ["sweeps"]
 
 
 def load(path):
@@ -43,7 +47,10 @@ def load(path):
             if row.get("bias_seeds") not in (None, "", "nan"):
                 r["bias16"] = (float(row["bias_seeds"]), float(row["bias_se"]))
             if row["scene"] in data:
-                data[row["scene"]][(row["model"], row["preset"])] = r
+                preset = row["preset"]
+                if row["model"] == "diffusion" and preset.endswith(" sweeps + FL"):  # e.g. "8 sweeps + FL"
+                    SWEEPS[0], preset = preset[: -len(" + FL")], "sweeps + FL"
+                data[row["scene"]][(row["model"], preset)] = r
     return data
 
 
@@ -78,7 +85,7 @@ def table(data):
         move = [data[s][k]["move"] for s in SCENES]
         first = [data[s][k]["first"] for s in SCENES]
         first_cell = "= move" if k[0].startswith("path_traced") else f"{_frames(min(first))}–{_frames(max(first))}"
-        lines.append(f"| {label} | " + " | ".join(cells)
+        lines.append(f"| {label.format(sweeps=SWEEPS[0])} | " + " | ".join(cells)
                      + f" | {_frames(min(move))}–{_frames(max(move))} | {first_cell} |")
     return lines
 

@@ -8,7 +8,7 @@ point light, a CT-like phantom with two coloured point lights):
   printed: it must stay well below the errors it measures);
 * VTK ``fixed_point`` EA of the same TF and camera: the time unit;
 * ``single_scattering`` at each quality preset, ``ambient_scattering`` for both propagation modes
-  and several radii, ``diffusion`` plain, flux-limited and with 4 transport sweeps + flux
+  and several radii, ``diffusion`` plain, flux-limited and with ``AUTO_SWEEP_ORDERS`` (8) transport sweeps + flux
   limiting, ``progressive`` at 0, 16 and 64 samples, ``path_traced`` at 1, 2, 4, … spp (and with
   the denoiser when ``pyoidn`` is installed): first-frame time (all caches
   cold but Numba compiled, the frame scored) and camera-move time (view-independent caches warm,
@@ -41,6 +41,7 @@ import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import metrics  # noqa: E402
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
 
 import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
 
@@ -76,8 +77,9 @@ def configurations(quick):
     cfg += [("ambient_scattering", q, {"quality": q}) for q in ("preview", "accurate")]  # defaults: BL, r = 8 vx
     cfg += [("diffusion", "plain", {"quality": "balanced"}),
             ("diffusion", "flux-limited", {"quality": "balanced", "flux_limited": True}),
-            ("diffusion", "4 sweeps + FL", {"quality": "balanced", "flux_limited": True, "sweep_orders": 4})]
-    # the progressive model (its default base: diffusion with 4 sweeps + FL): the first frame and after samples
+            ("diffusion", f"{AUTO_SWEEP_ORDERS} sweeps + FL",
+             {"quality": "balanced", "flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS})]
+    # the progressive model (its default base: diffusion with the sweeps + FL): the first frame and after samples
     cfg += [("progressive", f"{spp} spp", {"quality": "balanced", "samples_per_pixel": spp, "seed": 7})
             for spp in ((0, 64) if quick else (0, 16, 64))]
     radii = (2, 4, 8) if not quick else (8,)

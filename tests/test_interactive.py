@@ -12,6 +12,7 @@ import pyvista as pv  # noqa: E402
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
 from pv_ambient.pyvista.plane import texture_image  # noqa: E402
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
 from pv_ambient.rendering.renderer import refined_picture  # noqa: E402
 
 SIZE = (63, 47)  # odd sizes: the reduced size rounds up
@@ -209,7 +210,8 @@ def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
     pl.camera.Azimuth(7.0)
     win.Render()
     assert vol.moving and vol.volume_result.metadata["spp"] == 0
-    base = r.render(camera=pl.camera, window_size=SIZE, model="diffusion", flux_limited=True, sweep_orders=4)
+    base = r.render(camera=pl.camera, window_size=SIZE, model="diffusion", flux_limited=True,
+                    sweep_orders=AUTO_SWEEP_ORDERS)
     np.testing.assert_array_equal(vol.volume_result.radiance, base.radiance)
     win.SetDesiredUpdateRate(0.0001)  # the camera rests
     win.Render()

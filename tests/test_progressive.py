@@ -6,6 +6,7 @@ import pytest
 
 import pv_ambient as pa
 from pv_ambient import datasets
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
 
 SIZE = (10, 8)
 
@@ -45,7 +46,7 @@ def test_no_scattering_residual_is_exactly_zero():
 def test_zero_samples_is_the_base_picture():
     r, g = _cloud()
     # the default base at quality "balanced": diffusion with the transport sweeps and flux limiting
-    base = r.render(window_size=SIZE, model="diffusion", phase=g, flux_limited=True, sweep_orders=4)
+    base = r.render(window_size=SIZE, model="diffusion", phase=g, flux_limited=True, sweep_orders=AUTO_SWEEP_ORDERS)
     res = r.render(window_size=SIZE, model="progressive", phase=g, samples_per_pixel=0)
     np.testing.assert_array_equal(res.radiance, base.radiance)
     np.testing.assert_array_equal(res.alpha, base.alpha)
@@ -95,6 +96,25 @@ def test_converges_to_the_path_traced_answer(scene, base):
     assert int(np.sum(np.abs(z) > 3.29)) <= 3, np.sort(np.abs(z).ravel())[-6:]
     se_mean = float(np.sqrt(np.sum(se ** 2))) / se.size
     assert abs(a.mean() - b.mean()) <= 3 * se_mean + 0.01 * b.mean()
+
+
+def test_fewer_than_the_minimum_samples_keep_only_the_exact_corrections():
+    """Below ``REFINE_MIN_SAMPLES`` samples per pixel the picture keeps no measured detail, however
+    far it stands out of its noise: only the corrections known exactly (zero variance there and
+    around); from the minimum on the same correction is kept in full."""
+    from pv_ambient.rendering.renderer import REFINE_MIN_SAMPLES, refined_picture
+
+    base = np.zeros((16, 16, 3))
+    estimate = base + 0.5  # a correction 50 standard errors above its noise
+    se = np.full_like(base, 0.01)
+    se[:5, :5] = 0.0  # pixels [0, 4)² have zero variance in their 3×3 neighbourhood: exact
+    few, kept = refined_picture(base, estimate, se, samples=REFINE_MIN_SAMPLES - 1)
+    np.testing.assert_array_equal(few[:4, :4], 0.5)
+    assert np.count_nonzero(few) == 4 * 4 * 3 and kept == 0.0
+    enough, kept = refined_picture(base, estimate, se, samples=REFINE_MIN_SAMPLES)
+    np.testing.assert_allclose(enough, 0.5) and kept == 1.0
+    # variances known exactly (samples=None): no minimum
+    np.testing.assert_allclose(refined_picture(base, estimate, se)[0], 0.5)
 
 
 @pytest.mark.parametrize("scene", [_cloud, _lit_inside])
