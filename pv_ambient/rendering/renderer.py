@@ -221,7 +221,8 @@ class Renderer(SceneStages):
               "single_scattering", "ambient_scattering") refined by residual path samples that
               use it as a control variate (docs/progressive.rst): noise-free at
               ``samples_per_pixel=0``, then (from 16 samples per pixel) the base plus the part of
-              the samples' correction that stands out of its noise — the path tracer's answer as samples accumulate
+              the samples' correction that stands out of its noise — the path tracer's answer as
+              samples accumulate
               (``unbiased=True``: the whole correction, unbiased at every count;
               ``denoise=True``, with ``pyoidn``: that picture or the unbiased one denoised by
               OIDN, whichever held-out halves of the samples find closer); the base's options,
@@ -747,9 +748,9 @@ def refined_picture(base, estimate, std_error, samples=None):
 #: Samples per pixel before the ``progressive`` model's picture keeps any detail of its correction
 #: that is not known exactly (fewer: the base picture, plus the exact corrections). The threshold
 #: takes the variances from the samples themselves; a heavy-tailed residual's few samples
-#: underestimate them often enough that, measured over nine scenes and four seeds at 2–8 samples,
-#: the details kept made the picture worse than its base far more often than better
-#: (docs/progressive.rst, "The picture shown").
+#: underestimate them often enough that, on the six scenes of ``benchmarks/progressive.py`` at
+#: 2–8 samples, the details kept made the picture worse than its base more often than better
+#: (``benchmarks/refine_min.py``; docs/progressive.rst, "The picture shown").
 REFINE_MIN_SAMPLES = 16
 
 
