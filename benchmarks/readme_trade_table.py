@@ -33,12 +33,9 @@ ROWS = (
 )
 
 
-#: The diffusion row's sweep count as the run labelled it ("8 sweeps"), set by :func:`load`.
-SWEEPS = ["sweeps"]
-
-
 def load(path):
-    """{scene: {(model, preset): {block, bias, ssim, move, first[, bias16]}}} from trade.csv."""
+    """{scene: {(model, preset): {block, bias, ssim, move, first[, bias16][, sweeps]}}} from trade.csv
+    (the sweeps row under the preset "sweeps + FL", its count as the run labelled it in ``sweeps``)."""
     data = {s: {} for s in SCENES}
     with open(path, newline="") as fh:
         for row in csv.DictReader(fh):
@@ -49,7 +46,7 @@ def load(path):
             if row["scene"] in data:
                 preset = row["preset"]
                 if row["model"] == "diffusion" and preset.endswith(" sweeps + FL"):  # e.g. "8 sweeps + FL"
-                    SWEEPS[0], preset = preset[: -len(" + FL")], "sweeps + FL"
+                    r["sweeps"], preset = preset[: -len(" + FL")], "sweeps + FL"
                 data[row["scene"]][(row["model"], preset)] = r
     return data
 
@@ -85,7 +82,7 @@ def table(data):
         move = [data[s][k]["move"] for s in SCENES]
         first = [data[s][k]["first"] for s in SCENES]
         first_cell = "= move" if k[0].startswith("path_traced") else f"{_frames(min(first))}–{_frames(max(first))}"
-        lines.append(f"| {label.format(sweeps=SWEEPS[0])} | " + " | ".join(cells)
+        lines.append(f"| {label.format(**data[SCENES[0]][k])} | " + " | ".join(cells)
                      + f" | {_frames(min(move))}–{_frames(max(move))} | {first_cell} |")
     return lines
 
