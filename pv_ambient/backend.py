@@ -40,6 +40,37 @@ class DeviceMemoryError(MemoryError):
     """A scene does not fit in the GPU's free memory."""
 
 
+_BLAS = None
+
+
+@contextlib.contextmanager
+def blas_one_thread():
+    """Run the enclosed code with the BLAS libraries (NumPy's and SciPy's OpenBLAS or MKL) on one
+    thread, restoring their thread counts after.
+
+    The renderer's own BLAS calls are small (norms and dot products of the diffusion solver's
+    vectors, a coarse-grid product), but a multi-threaded BLAS keeps its worker threads spinning
+    for a while after each call: they then compete with the Numba kernels for the cores — on
+    2 cores the camera-move frames that followed a diffusion solve took 3× their time until the
+    spinning stopped (benchmarks/progressive.py, docs/progressive.rst). With one BLAS thread there
+    are no such workers. Uses :mod:`threadpoolctl`, which finds the loaded BLAS libraries; its
+    controller is built once, at the first render.
+
+    >>> import numpy as np
+    >>> with blas_one_thread():
+    ...     float(np.dot(np.ones(4), np.ones(4)))
+    4.0
+    """
+    global _BLAS
+    if _BLAS is None:
+        import scipy.linalg  # noqa: F401  (SciPy's own BLAS: loaded before the controller looks)
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS = ThreadpoolController()
+    with _BLAS.limit(limits=1, user_api="blas"):
+        yield
+
+
 def simulator() -> bool:
     """Whether Numba's CUDA simulator is on (``NUMBA_ENABLE_CUDASIM=1``)."""
     return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"

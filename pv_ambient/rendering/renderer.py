@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 
-from ..backend import BACKENDS, resolve_backend, run_raycast
+from ..backend import BACKENDS, blas_one_thread, resolve_backend, run_raycast
 from ..inputs.camera import as_camera
 from ..inputs.grid import Volume, volume_from_image
 from ..inputs.lights import POINT, as_lights, needs_camera, pack_lights
@@ -381,12 +381,13 @@ class Renderer(SceneStages):
         compile_notice(model)
         warn_unused_options(req, model)
         options = {**req.options, **extra}
-        if model == "path_traced":
-            res = self._path_trace(req, options)
-        elif model == "progressive":
-            res = self._progressive(req, options)
-        else:
-            res = self._render(req, model, options)
+        with blas_one_thread():  # no spinning BLAS workers beside the Numba kernels (backend.py)
+            if model == "path_traced":
+                res = self._path_trace(req, options)
+            elif model == "progressive":
+                res = self._progressive(req, options)
+            else:
+                res = self._render(req, model, options)
         if MODEL_SPECS[req.model].lit:
             res.metadata["light_rig"] = self.light_rig
             warn_black(self, res, req.background)
