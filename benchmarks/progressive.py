@@ -12,7 +12,8 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   solves, bakes — cached, as after a camera move): the noise-free models (single scattering,
   ambient scattering, diffusion plain / flux-limited / with ``AUTO_SWEEP_ORDERS`` transport sweeps) once each, and
   each also as its *drag frame* in interactive mode (half the window per axis, twice the ray
-  step, shown on the full-size plane: upsampled linearly, as the texture is); ``path_traced`` (and
+  step with jittered ray starts, seed 0, shown on the full-size plane: upsampled linearly, as the
+  texture is); ``path_traced`` (and
   ``path_traced+OIDN``) at 1, 2, 4, … ``--max-spp`` samples per pixel; ``progressive`` (its
   default base: diffusion with those sweeps and flux limiting) and ``progressive, diffusion
   base`` (plain diffusion) as a user sees them after a camera move: the drag frame, then the
@@ -100,14 +101,15 @@ def preview(r, cam, size, g, model, opts, repeats):
     """The model's drag frame in interactive mode: half the window per axis (``add_ambient_volume``'s
     default ``interactive_resolution``) and twice the ray step (its drag step after one doubling:
     it starts at the resting step and doubles while frames are slower than the window's desired
-    rate, up to ``interactive_step``); shown on the full-size plane
+    rate, up to ``interactive_step``), marched from jittered starts as the interactive mode does at
+    a lengthened step (its default ``seed``, 0); shown on the full-size plane
     with linear texture interpolation — here the same upsampling by ``scipy.ndimage.zoom``. Returns
     the full-size image and the median time of the half-size render (the upsampling is the
     texture's, not counted)."""
     from scipy import ndimage
 
     half = (max(1, size[0] // 2), max(1, size[1] // 2))
-    o = dict(opts, step=2.0 * r.default_step())
+    o = dict(opts, step=2.0 * r.default_step(), jitter=True, seed=0)
     res, t = timed(r, cam, half, g, model, o, repeats)
     f = (size[1] / half[1], size[0] / half[0], 1)
     img = ndimage.zoom(res.radiance.astype(np.float64), f, order=1, grid_mode=True, mode="nearest")

@@ -88,8 +88,9 @@ def test_interactive_options_are_checked(scene, option, bad):
 
 def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal_step(scene):
     """A drag frame slower than the rate the window asks for doubles the ray step (up to
-    ``interactive_step``); each drag frame equals a render at that step and the drag resolution; fast
-    frames halve the step again; the resting frame is the normal render (resting step)."""
+    ``interactive_step``); each drag frame equals a render at that step and the drag resolution,
+    with jittered ray starts once the step is longer than the resting one; fast frames halve the
+    step again; the resting frame is the normal render (resting step, no jitter)."""
     grid, tf, lights = scene
     pl = _plotter()
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="ambient_scattering",
@@ -104,7 +105,7 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
         win.Render()
         seen.append(factor)
         ref = vol.renderer.render(camera=pa.Camera.from_vtk(pl.camera), window_size=vol.result.window_size,
-                                  model="ambient_scattering", step=base * factor)
+                                  model="ambient_scattering", step=base * factor, jitter=factor > 1)
         assert np.array_equal(vol.volume_result.radiance, ref.radiance)
     assert seen == [1, 2, 4, 4] and vol.step_factor == 4  # doubled per slow frame, capped
     win.SetDesiredUpdateRate(1.0)  # a budget of 1 s: every frame is fast, the step halves

@@ -56,6 +56,19 @@ def test_zero_samples_is_the_base_picture():
     np.testing.assert_array_equal(res.radiance, plain.radiance)  # "preview": plain diffusion
 
 
+def test_a_jittered_base_follows_its_seed():
+    """The base picture is cached per view; a jittered march (a drag frame's) depends on the seed, so
+    each seed — and the unjittered march — gets its own base: the base model's picture each time."""
+    r, g = _cloud()
+    for jitter, seed in ((True, 1), (True, 2), (False, 2)):
+        base = r.render(window_size=SIZE, model="single_scattering", phase=g, jitter=jitter, seed=seed)
+        res = r.render(window_size=SIZE, model="progressive", base_model="single_scattering", phase=g,
+                       samples_per_pixel=0, jitter=jitter, seed=seed)
+        np.testing.assert_array_equal(res.radiance, base.radiance)
+    one = r.render(window_size=SIZE, model="single_scattering", phase=g, jitter=True, seed=1).radiance
+    assert not np.array_equal(one, base.radiance)  # (the seeds' pictures differ: the check above could fail)
+
+
 def test_times_are_this_calls_own():
     """``time_prepare + time_render`` is the call's wall time, each part ≥ 0: a second call on the
     same view takes its base picture from the cache and prepares nothing (the interactive mode's

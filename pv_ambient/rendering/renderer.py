@@ -605,7 +605,8 @@ class Renderer(SceneStages):
         key = ("progressive_base", base, tuple(sorted(base_options.items())), tuple(self.lights),
                np.asarray(cam.params(size), np.float64).tobytes(), tuple(size), req.step, req.radius,
                req.propagation, req.phase.canonical(), req.light_resolution, req.table_quality, req.bake_lights,
-               req.early_termination, req.background.tobytes(), req.backend)
+               req.early_termination, req.background.tobytes(), req.backend,
+               (req.jitter, req.seed if req.jitter else None))  # (the seed moves a jittered march)
         spp = check_int(options.get("samples_per_pixel", DEFAULT_SPP), "samples_per_pixel", lo=0)
         cached = key in self.cache
         if cached:
