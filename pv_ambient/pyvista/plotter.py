@@ -262,7 +262,8 @@ class AmbientVolume:
             opts["step"] = step
             # a long step marched from the same place on every ray bands thin layers (wood grain)
             # and shifts the picture's mean; jittered starts turn that into fine noise
-            # (benchmarks/drag_frame.py: at 4 resting steps the CT phantom's error falls by a third)
+            # (benchmarks/drag_frame.py: at 4 resting steps the CT phantom's diffusion drag frames lose a
+            # third of their error)
             opts.setdefault("jitter", True)
         if self.moving:  # a drag frame takes a fraction of a second: no delayed progress bar (its thread)
             opts.setdefault("progress_bar", False)
