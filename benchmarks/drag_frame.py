@@ -1,6 +1,6 @@
 """Drag frames with and without jittered ray starts: the error of every noise-free model's
-interactive drag frame (docs/display.rst) against the path-traced reference, on the nine scenes of
-benchmarks/noise_free.py.
+interactive drag frame (``add_ambient_volume(..., interactive=True)`` while the camera moves)
+against the path-traced reference, on the nine scenes of benchmarks/noise_free.py.
 
 A drag frame (``add_ambient_volume``'s interactive mode while the camera moves) is rendered at half
 the window per axis and, while frames are slower than the window asks for, at 2, 4, … times the
@@ -74,7 +74,8 @@ def run_scene(name, seeds, log):
     log(f"\n{name}: {scene_registry.DESCRIPTIONS[name]}  (reference {how}, block noise {info['block_noise']:.4f})")
     log(f"    {'model':24s} " + "  ".join(f"{'step ×' + str(k) + ': fixed → jittered (range)':>36s}" for k in STEPS))
     for label, cells in rows:
-        log(f"    {label:24s} " + "  ".join(f"{p:8.3f} → {m:.3f} ({lo:.3f}–{hi:.3f})".rjust(36) for p, m, lo, hi in cells))
+        log(f"    {label:24s} " + "  ".join(f"{p:8.3f} → {m:.3f} ({lo:.3f}–{hi:.3f})".rjust(36)
+                                          for p, m, lo, hi in cells))
     return rows
 
 
@@ -97,8 +98,8 @@ def main(argv=None):
             ch = np.array([cells[i][1] / cells[i][0] - 1.0 for n in names for _, cells in allrows[n]])
             if ch.size == 0:
                 continue
-            log(f"  step ×{k}, {group}: lower in {int(np.sum(ch < 0))} of {ch.size}; median change {np.median(ch):+.1%}, "
-                f"largest increase {ch.max():+.1%}, largest decrease {ch.min():+.1%}")
+            log(f"  step ×{k}, {group}: lower in {int(np.sum(ch < 0))} of {ch.size}; median change "
+                f"{np.median(ch):+.1%}, largest increase {ch.max():+.1%}, largest decrease {ch.min():+.1%}")
 
 
 if __name__ == "__main__":

@@ -536,8 +536,9 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         Interactive mode: the largest ray step while the camera moves, in resting steps (a power
         of two ≥ 1; 1 keeps the resting step). Ignored by ``path_traced``. A drag frame at a longer
         step is an approximation (the volume sampled more coarsely, its fine detail aliased — as
-        noise, its ray starts jittered): a preview while the camera moves, never the picture it rests on. 16 lets a 256³ volume
-        reach 10 frames per second on two cores (``benchmarks/speed.py --drag``).
+        noise, its ray starts jittered): a preview while the camera moves, never the picture it
+        rests on. 16 lets a 256³ volume reach 10 frames per second on two cores
+        (``benchmarks/speed.py --drag``).
     **render_options
         As :meth:`pv_ambient.Renderer.render`. Without ``background`` the volume is composited
         over the plotter's own background (its colour, or its gradient), as VTK's ``add_volume``
