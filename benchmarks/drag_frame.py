@@ -35,18 +35,11 @@ import numpy as np
 import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
 import pv_ambient as pa
 import scenes as scene_registry
-from progressive import NOISE_FREE
+from progressive import NOISE_FREE, upsampled
 from pv_ambient import metrics
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"] + scene_registry.GROUPS["new"]
 STEPS = (1, 2, 4)
-
-
-def upsampled(img, size, half):
-    from scipy import ndimage
-
-    f = (size[1] / half[1], size[0] / half[0], 1)
-    return ndimage.zoom(img.astype(np.float64), f, order=1, grid_mode=True, mode="nearest")
 
 
 def run_scene(name, seeds, log):

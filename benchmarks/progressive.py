@@ -106,14 +106,18 @@ def preview(r, cam, size, g, model, opts, repeats):
     with linear texture interpolation — here the same upsampling by ``scipy.ndimage.zoom``. Returns
     the full-size image and the median time of the half-size render (the upsampling is the
     texture's, not counted)."""
-    from scipy import ndimage
-
     half = (max(1, size[0] // 2), max(1, size[1] // 2))
     o = dict(opts, step=2.0 * r.default_step(), jitter=True, seed=0)
     res, t = timed(r, cam, half, g, model, o, repeats)
+    return upsampled(res.radiance, size, half), t
+
+
+def upsampled(img, size, half):
+    """A ``half``-size picture shown on the ``size`` plane: linear interpolation, as the texture's."""
+    from scipy import ndimage
+
     f = (size[1] / half[1], size[0] / half[0], 1)
-    img = ndimage.zoom(res.radiance.astype(np.float64), f, order=1, grid_mode=True, mode="nearest")
-    return img, t
+    return ndimage.zoom(img.astype(np.float64), f, order=1, grid_mode=True, mode="nearest")
 
 
 def spp_ladder(max_spp, start=1):

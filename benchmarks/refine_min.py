@@ -39,13 +39,8 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "refine_min.txt"))
     a = ap.parse_args(argv)
-    lines = []
-
-    def log(s=""):
-        print(s, flush=True)
-        lines.append(s)
-
-    log("python benchmarks/refine_min.py" + "".join(f" {x}" for x in (argv if argv is not None else sys.argv[1:])))
+    log = nf.Log(Path(a.out), "python benchmarks/refine_min.py"
+                 + "".join(f" {x}" for x in (argv if argv is not None else sys.argv[1:])))
     log(f"pv_ambient at {nf._commit()}; 64×64 pixels, 64³ data points; the thresholded picture without a minimum "
         f"(the model's REFINE_MIN_SAMPLES = {REFINE_MIN_SAMPLES}) against its base, {a.seeds} seeds per count")
     size = (64, 64)
@@ -71,7 +66,6 @@ def main(argv=None):
             d = np.array(errs) - e0
             log(f"  {spp:4d}  {int(np.sum(d > TOL)):5d}  {int(np.sum(d < -TOL)):6d}  {max(d.max(), 0.0):+12.4f}  "
                 f"{min(d.min(), 0.0):+12.4f}  {np.mean(errs):7.4f}  {np.mean(eps):8.3f}")
-    Path(a.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {a.out}")
 
 
