@@ -29,17 +29,23 @@ def _lit_inside():
 def test_no_scattering_residual_is_exactly_zero():
     """Albedo 0: a path sample is the emission at its first collision (or the background), and so
     is the control at the same collision — every residual sample is 0.0 exactly, so the picture is
-    the base model's and its standard error 0. A control drawn from other random numbers than the
-    path's first free flight would leave a non-zero residual."""
+    the control's: the base model marched at ``CONTROL_STEP_FRACTION`` of the step, and its
+    standard error 0. A control drawn from other random numbers than the path's first free flight
+    would leave a non-zero residual; a control marched at the step itself would give the base
+    picture, which differs here by more than float32 rounding (checked)."""
+    from pv_ambient.rendering.presets import CONTROL_STEP_FRACTION
+
     tf = {"kind": "colormap", "cmap": "magma", "clim": [0.0, 1.0], "opacity": "linear", "albedo": 0.0,
           "emission": 1.0, "opacity_unit_distance": 0.3}
     r = pa.Renderer(datasets.supernova(n=12), transfer_function=tf, lights=[pa.PointLight((2, 2, 2), 1.0)])
-    base = r.render(window_size=SIZE, model="single_scattering", background=(0.1, 0.2, 0.3))
-    res = r.render(window_size=SIZE, model="progressive", base_model="single_scattering", samples_per_pixel=8,
-                   background=(0.1, 0.2, 0.3))
+    kw = dict(window_size=SIZE, background=(0.1, 0.2, 0.3))
+    base = r.render(model="single_scattering", step=0.08, **kw)
+    fine = r.render(model="single_scattering", step=0.08 * CONTROL_STEP_FRACTION, **kw)
+    res = r.render(model="progressive", base_model="single_scattering", samples_per_pixel=8, step=0.08, **kw)
     assert base.radiance.max() > 0.05
+    assert np.abs(fine.radiance - base.radiance).max() > 1e-3 * base.radiance.max()
     np.testing.assert_array_equal(res.std_error, 0.0)
-    np.testing.assert_array_equal(res.radiance, base.radiance)
+    np.testing.assert_array_equal(res.radiance, fine.radiance)
     assert res.metadata["spp"] == 8 and res.metadata["model"] == "progressive"
 
 
@@ -165,10 +171,12 @@ def test_control_variate_lowers_the_variance_where_the_model_is_close():
     assert float(np.mean(p.std_error ** 2)) < 0.5 * float(np.mean(q.std_error ** 2))
 
 
-def test_control_march_only_where_the_clamp_changes_it(monkeypatch):
-    """The control's second march (point lights clamped at the equiangular radius) runs only when
-    a point light is within that radius of the box: for a light farther away the clamp changes
-    nothing, and the picture equals the one with the march forced — bit for bit."""
+def test_control_march_once_per_view_and_clamped_only_near_a_light(monkeypatch):
+    """The control's march runs once per view, when samples are first taken (none for the 0-sample
+    picture, none again for more samples of the same view). Its point lights are clamped at the
+    equiangular radius only when a light is within that radius of the box: for a light farther
+    away the clamp changes nothing, and the picture equals the one with the clamp forced — bit
+    for bit — while for a light inside the medium the clamp changes the control's picture."""
     import pv_ambient.rendering.renderer as rmod
     from pv_ambient.inputs.grid import GridGeometry
 
@@ -184,18 +192,26 @@ def test_control_march_only_where_the_clamp_changes_it(monkeypatch):
           "opacity_unit_distance": 0.15}
     kw = dict(window_size=SIZE, model="progressive", samples_per_pixel=4, seed=3, unbiased=True)
     far = pa.PointLight((0.3, 0.2, 3.5), intensity=8.0)  # 2.5 from the box [-1, 1]³; the radius is 0.87
-    p = pa.Renderer(datasets.cloud(n=12), transfer_function=tf, lights=[far]).render(**kw)
+    r = pa.Renderer(datasets.cloud(n=12), transfer_function=tf, lights=[far])
+    r.render(**dict(kw, samples_per_pixel=0))
     assert marches.count("ray cast (control)") == 0
+    p = r.render(**kw)
+    r.render(**dict(kw, seed=4))
+    assert marches.count("ray cast (control)") == 1
     monkeypatch.setattr(GridGeometry, "distance_to", lambda self, xyz: np.zeros(len(xyz)))
     q = pa.Renderer(datasets.cloud(n=12), transfer_function=tf, lights=[far]).render(**kw)
-    assert marches.count("ray cast (control)") == 1
+    assert marches.count("ray cast (control)") == 2
     np.testing.assert_array_equal(p.radiance, q.radiance)
     np.testing.assert_array_equal(p.std_error, q.std_error)
     monkeypatch.undo()
-    monkeypatch.setattr(rmod, "run_raycast", counting)
+    # a light inside the medium: the clamp moves the picture by more than rounding (were it not
+    # applied, the two renders would be the same computation, bit for bit)
     r, _ = _lit_inside()
-    r.render(**kw)
-    assert marches.count("ray cast (control)") == 2
+    inside = r.render(**kw)
+    monkeypatch.setattr(rmod, "EQ_RADIUS", 0.0)  # no light within a zero radius: nothing clamped
+    r2, _ = _lit_inside()
+    unclamped = r2.render(**kw)
+    assert np.abs(inside.radiance - unclamped.radiance).max() > 1e-3 * inside.radiance.max()
 
 
 def test_bad_arguments_name_what_was_wrong():

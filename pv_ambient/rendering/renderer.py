@@ -31,6 +31,7 @@ from .presets import (
     ALL_MODELS,
     ACCURATE_DIFFUSION,
     BUDGET_MAX_SPP,
+    CONTROL_STEP_FRACTION,
     DEFAULT_PROGRESSIVE_BASE,
     DEFAULT_PROPAGATION,
     DEFAULT_SPP,
@@ -616,23 +617,24 @@ class Renderer(SceneStages):
             nf = self._render(req, base, base_options, records=records)
             control_image = None
         if control_image is None and records and spp > 0:  # the first samples: the control's picture
-            control_image = nf.radiance
+            # N of docs/progressive.rst, marched once per view at CONTROL_STEP_FRACTION of the step:
+            # the samples correct it to the transfer equation's answer up to its quadrature error
             args = records[0]
-            lrec = args[4]
+            march, lrec = args[2], args[4]
             # the control's point lights: I/d² clamped at the equiangular radius (the path tracer
-            # samples the singular part near a light; the control stays smooth there) — its own march
+            # samples the singular part near a light; the control stays smooth there); for a light
+            # farther than rc from the box the clamp changes nothing
             rc = EQ_RADIUS * self.geometry.diagonal
-            # (a light farther than rc from the box: the clamp changes nothing there, and the
-            # control's picture is the base's — no second march)
             points = np.asarray(lrec.vec)[np.asarray(lrec.kind) == POINT]
             if len(points) and rc * rc > lrec.d2min and float(np.min(self.geometry.distance_to(points))) < rc:
-                args = args[:4] + (lrec._replace(d2min=rc * rc),) + args[5:]
-                w, h = req.window_size
-                control_image = np.zeros((h, w, 3), np.float32)
-                run_raycast(args, control_image, np.zeros((h, w), np.float32), backend=req.backend,
-                            asked=req.asked, device_cache=self.device_cache if req.backend == "cuda" else None,
-                            progress_bar=False, name="ray cast (control)")
-                records = [args]
+                lrec = lrec._replace(d2min=rc * rc)
+            args = args[:2] + (march._replace(step=march.step * CONTROL_STEP_FRACTION),) + args[3:4] + (lrec,) + args[5:]
+            w, h = req.window_size
+            control_image = np.zeros((h, w, 3), np.float32)
+            run_raycast(args, control_image, np.zeros((h, w), np.float32), backend=req.backend,
+                        asked=req.asked, device_cache=self.device_cache if req.backend == "cuda" else None,
+                        progress_bar=False, name="ray cast (control)")
+            records = [args]
         for old in list(self.cache.keys("progressive_base")):
             if old != key:
                 del self.cache[old]  # one view at a time: a camera move replaces it
