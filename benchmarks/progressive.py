@@ -29,7 +29,8 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
   most expensive frame that takes at most B — the picture a user has after that time (a model with
   no frame within B has none); printed per scene with ``*`` on the lowest, and whether each
   ``progressive`` row is at or below every other model (the other ``progressive`` rows excluded;
-  ``tie``: above, but equal at the table's three decimals — below the reference's own block noise);
+  ``tie``: above, but equal at the table's three decimals — below the reference's own block noise;
+  after ``tie`` and ``NO`` the margin above the lowest other model's error);
 * the bias at ``--max-spp``: the relative error of the image mean against the reference's, with
   its standard error from the per-pixel standard errors, for ``path_traced`` and each
   ``progressive`` row — its default (thresholded) picture and its unbiased one
@@ -212,14 +213,16 @@ def run_scene(name, n, size, max_spp, repeats, log):
     for row in PROGRESSIVE:
         if row not in table:
             continue
-        ok[row], ok3[row] = [], []
+        ok[row], ok3[row], gaps = [], [], []
         for i, b in enumerate(BUDGETS):
             p = table[row][i]
             others = [v[i] for k, v in table.items() if not k.startswith("progressive") and v[i] is not None]
             ok[row].append(p is not None and all(p <= o for o in others))
             ok3[row].append(p is not None and all(round(p, 3) <= round(o, 3) for o in others))
+            gaps.append(None if p is None or not others else p - min(others))
         log(f"    {row} at or below every other model: "
-            + " ".join(f"{b}:{'yes' if o else ('tie' if t else 'NO')}" for b, o, t in zip(BUDGETS, ok[row], ok3[row])))
+            + " ".join(f"{b}:{'yes' if o else ('tie' if t else 'NO')}" + ("" if o or gap is None else f"({gap:+.1e})")
+                       for b, o, t, gap in zip(BUDGETS, ok[row], ok3[row], gaps)))
     return dict(name=name, curves=curves, ok=ok, ok3=ok3, unit=unit)
 
 
@@ -270,6 +273,10 @@ def main(argv=None):
             ties = [row["name"] for row in rows if row["ok3"][which][b_i] and not row["ok"][which][b_i]]
             log(f"  {b:>4d}: {len(good)} of {len(rows)} scenes" + (f" ({', '.join(good)})" if good else "")
                 + f" [{len(good) + len(ties)} of {len(rows)}" + (f"; ties: {', '.join(ties)}" if ties else "") + "]")
+        every = [row["name"] for row in rows if all(row["ok"][which])]
+        every3 = [row["name"] for row in rows if all(row["ok3"][which])]
+        log(f"  scene by scene, at every budget: {len(every)} of {len(rows)}" + (f" ({', '.join(every)})" if every else "")
+            + f" [{len(every3)} of {len(rows)}" + (f": {', '.join(every3)}" if every3 else "") + "]")
     plot(rows, out / "progressive.png")
 
 
