@@ -1,0 +1,96 @@
+"""The ``progressive`` model's control march (docs/progressive.rst): the quadrature error its picture
+converges to, against the ray step the control's picture is marched at.
+
+The progressive picture tends to :math:`L + N' - N_c` — the transfer equation's answer plus the
+quadrature error of the control's march :math:`N'` (``CONTROL_STEP_FRACTION`` of the ray step).
+For each of the six scenes of benchmarks/progressive.py (64×64 pixels, 64³ data points) and the
+default base (diffusion with ``AUTO_SWEEP_ORDERS`` transport sweeps and flux limiting), the base
+model is marched at 1, ½, ¼ of the default step and at 1/16 of it, the stand-in for the exact
+integral :math:`N_c`; printed per fraction:
+
+* ``quad``: the 4×4-block relative RMSE of the march against the 1/16 march, relative to the
+  reference's mean, scored as benchmarks/progressive.py scores pictures (a 7×7 window at each
+  light's projection masked): the block error the converged picture carries besides the
+  reference's own noise;
+* ``mean``: the relative shift of the image mean it carries;
+* ``cost``: the march's time (median of 5, caches warm) in marches at the default step.
+
+Usage: ``python benchmarks/control_step.py [--scenes NAME ...] [--out DIR]`` (writes
+``control_step.txt`` to ``benchmarks/results`` unless ``--out`` names another directory).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+import pv_ambient as pa
+import scenes as scene_registry
+from pv_ambient import metrics
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS, CONTROL_STEP_FRACTION
+
+SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
+FRACTIONS = (1.0, 0.5, 0.25)
+EXACT = 1.0 / 16.0
+BASE = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}
+
+
+def march(r, cam, g, fraction, repeats=5):
+    """The base model's picture at ``fraction`` of the default step, and the median time of ``repeats``."""
+    kw = dict(camera=cam, window_size=nf.SIZE, model="diffusion", phase=g, progress_bar=False,
+              step=fraction * r.default_step(), **BASE)
+    img = r.render(**kw).radiance.astype(np.float64)
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        r.render(**kw)
+        times.append(time.perf_counter() - t)
+    return img, float(np.median(times))
+
+
+def run_scene(name, log):
+    grid, tf, lights, g, cam = scene_registry.scene(name, nf.N)
+    r = pa.Renderer(grid, transfer_function=tf, lights=lights)
+    mask = metrics.light_mask(nf.SIZE[::-1], cam, nf.SIZE, lights)
+    ref, info, how = nf.reference(name, r, lights, g, cam, mask, False)
+    ref = ref.astype(np.float64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        exact, _ = march(r, cam, g, EXACT, repeats=1)
+        rows = {f: march(r, cam, g, f) for f in FRACTIONS}
+    m = mask[..., None] & np.ones(3, bool)
+    ref_mean = float(np.mean(ref[m]))
+    t1 = rows[1.0][1]
+    log(f"\n{name}: reference ({how}), block noise {info['block_noise']:.4f}")
+    log(f"    {'step':>6s} {'quad':>8s} {'mean':>8s} {'cost':>6s}")
+    for f, (img, t) in rows.items():
+        # the quadrature error's block RMSE, relative to the reference's mean (not to the march's)
+        quad = metrics.block_relative_rmse(ref + img - exact, ref, mask)
+        shift = float(np.mean((img - exact)[m])) / ref_mean
+        tag = "  (default)" if f == CONTROL_STEP_FRACTION else ""
+        log(f"    {f:>6g} {quad:8.4f} {shift:+8.2%} {t / t1:6.2f}{tag}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    ap.add_argument("--out", default=None, help="directory of control_step.txt (default benchmarks/results)")
+    args = ap.parse_args(argv)
+    out = Path(args.out) if args.out else nf.RESULTS
+    log = nf.Log(out / "control_step.txt", "python benchmarks/control_step.py " + " ".join(
+        sys.argv[1:] if argv is None else argv))
+    log(f"pv_ambient at {nf._commit()}; {nf.SIZE[0]}×{nf.SIZE[1]} pixels, {nf.N}³ data points; base: diffusion, "
+        f"{AUTO_SWEEP_ORDERS} sweeps + FL; the exact integral stood in by the march at 1/16 of the step; "
+        f"CONTROL_STEP_FRACTION = {CONTROL_STEP_FRACTION}")
+    for name in args.scenes:
+        run_scene(name, log)
+
+
+if __name__ == "__main__":
+    main()
