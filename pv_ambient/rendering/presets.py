@@ -84,12 +84,12 @@ MODEL_OPTIONS = frozenset({"propagation", "samples_per_pixel", "max_depth", "den
 #: The noise-free models ``progressive`` can refine (its ``base_model``; docs/progressive.rst) and its default.
 PROGRESSIVE_BASES = ("single_scattering", "ambient_scattering", "diffusion")
 DEFAULT_PROGRESSIVE_BASE = "diffusion"
-#: The ``progressive`` model's control picture :math:`N` (docs/progressive.rst) is marched at this
-#: fraction of the ray step: the picture converges to the transfer equation's answer up to that
-#: march's quadrature error, which halving the step cuts by about four (midpoint rule). Measured
-#: by ``benchmarks/progressive.py`` on the CT phantom, whose thin dense shell makes the step's
-#: error largest: the unbiased picture's block error at 256 samples 0.033 at the step, 0.021 at
-#: half of it, 0.020 at a quarter; it costs one march at that step per view, once samples are taken.
+#: The ``progressive`` model's control picture :math:`N'` (docs/progressive.rst) is marched at this
+#: fraction of the ray step, once per view when samples are first taken: the picture converges to
+#: the transfer equation's answer up to that march's quadrature error, which halving the step cuts
+#: by about four (midpoint rule). Measured by ``benchmarks/control_step.py`` on six scenes (block
+#: error relative to the reference's mean): at the step 0.0005–0.024 (the CT phantom's thin dense
+#: shell the largest), at half of it 0.0003–0.0048, at a quarter 0.0001–0.0011 at twice the cost.
 CONTROL_STEP_FRACTION = 0.5
 #: Every option a scene file may carry at top level besides the common ones.
 SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}

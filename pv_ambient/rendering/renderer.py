@@ -591,9 +591,10 @@ class Renderer(SceneStages):
 
     def _progressive(self, req, options):
         """The ``progressive`` model (docs/progressive.rst): the noise-free ``base_model``'s picture
+        at zero samples; after that, the same model marched at ``CONTROL_STEP_FRACTION`` of the step
         plus the mean of ``samples_per_pixel`` residual path samples, that model's source at each
-        path's first collision as a control variate (:mod:`pv_ambient._kernels.residual`). The
-        base picture of a view is cached (the interactive mode's refinement passes add samples to
+        path's first collision as a control variate (:mod:`pv_ambient._kernels.residual`). Both
+        pictures of a view are cached (the interactive mode's refinement passes add samples to
         one view without marching it again)."""
         from ..stages.reference import path_trace
 
@@ -617,7 +618,7 @@ class Renderer(SceneStages):
             nf = self._render(req, base, base_options, records=records)
             control_image = None
         if control_image is None and records and spp > 0:  # the first samples: the control's picture
-            # N of docs/progressive.rst, marched once per view at CONTROL_STEP_FRACTION of the step:
+            # N' of docs/progressive.rst, marched once per view at CONTROL_STEP_FRACTION of the step:
             # the samples correct it to the transfer equation's answer up to its quadrature error
             args = records[0]
             march, lrec = args[2], args[4]
