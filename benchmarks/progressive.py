@@ -5,9 +5,12 @@ For each scene (benchmarks/scenes.py: supernova, cloud, ct_phantom, smoke_plume,
 cloud_sun) at 64×64 pixels and 64³ data points, against the cached ``path_traced`` reference of
 benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when the cache is stale):
 
-* the time unit: VTK's ``fixed_point`` emission–absorption frame of the same view (median of
-  3 × ``--repeats`` frames, at least 15, as benchmarks/trade.py measures it: every figure is
-  divided by it, so it gets more frames than the models);
+* the time unit: VTK's ``fixed_point`` emission–absorption frame of the same view, measured
+  *interleaved* with the models: before each timed render, ``VTK_FRAMES`` VTK frames (the camera
+  turned by 0.5° each, as benchmarks/trade.py renders them), and the render's time is divided
+  by their median; a model's time is the median of these ratios. The load of this shared
+  machine drifts over seconds; one unit measured once per scene moved the ratios of the same
+  render by up to 2.7× between runs. The printed VTK frame is the median of all of a scene's;
 * every model's *camera-move* frames (the view-independent stages — light volumes, diffusion
   solves, bakes — cached, as after a camera move): the noise-free models (single scattering,
   ambient scattering, diffusion plain / flux-limited / with ``AUTO_SWEEP_ORDERS`` transport sweeps) once each, and
@@ -61,7 +64,6 @@ import pv_ambient as pa
 import scenes as scene_registry
 from pv_ambient import metrics
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
-from trade import vtk_time
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 BUDGETS = (3, 5, 10, 20, 50, 100)
@@ -84,32 +86,73 @@ def have_oidn() -> bool:
     return available()
 
 
-def timed(r, cam, size, g, model, opts, repeats):
+#: VTK frames rendered before each timed render: its time unit (their median).
+VTK_FRAMES = 3
+
+
+class VTKClock:
+    """VTK's ``fixed_point`` emission–absorption render of the scene's view (its TF, camera, window
+    size and ray step), kept open so that its frames can be interleaved with the timed renders."""
+
+    def __init__(self, grid, r, cam, size, step):
+        import pyvista as pv
+
+        from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
+
+        self.pl = pv.Plotter(off_screen=True, window_size=size)
+        add_vtk_volume(self.pl, grid, r, step=step, mapper="fixed_point")
+        cam.to_vtk(self.pl.camera)
+        self.pl.renderer.ResetCameraClippingRange()
+        self.pl.render()
+        self.frames = []
+        self.unit(6)  # warm-up, not kept
+        self.frames = []
+
+    def unit(self, n=VTK_FRAMES):
+        """Median time of ``n`` VTK frames rendered now (the camera turned by 0.5° and back in turn:
+        VTK skips a render when nothing changed); every frame is kept for the scene's printed median."""
+        times = []
+        for _ in range(n):
+            self.pl.camera.Azimuth(0.5 if len(self.frames) % 2 == 0 else -0.5)
+            self.pl.renderer.ResetCameraClippingRange()
+            t = time.perf_counter()
+            self.pl.ren_win.Render()
+            times.append(time.perf_counter() - t)
+            self.frames.append(times[-1])
+        return float(np.median(times))
+
+    def close(self):
+        self.pl.close()
+
+
+def timed(r, cam, size, g, model, opts, repeats, clock):
     """The camera-move frame of ``model``: the scored render at ``cam`` (it warms the view-independent
     caches), then renders from ``repeats`` cameras orbited by 1°, 2°, … (a camera move: nothing
-    view-dependent is reused) are timed; returns the scored image and their median time."""
+    view-dependent is reused) are timed, each right after ``clock``'s VTK frames; returns the
+    scored image and the median of their times in those VTK frames."""
     res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False, **opts)
-    times = []
+    ratios = []
     for k in range(repeats):
         c = nf.orbit(cam, 1.0 + k)
+        unit = clock.unit()
         t = time.perf_counter()
         r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
-        times.append(time.perf_counter() - t)
-    return res, float(np.median(times))
+        ratios.append((time.perf_counter() - t) / unit)
+    return res, float(np.median(ratios))
 
 
-def preview(r, cam, size, g, model, opts, repeats):
+def preview(r, cam, size, g, model, opts, repeats, clock):
     """The model's drag frame in interactive mode: half the window per axis (``add_ambient_volume``'s
     default ``interactive_resolution``) and twice the ray step (its drag step after one doubling:
     it starts at the resting step and doubles while frames are slower than the window's desired
     rate, up to ``interactive_step``), marched from jittered starts as the interactive mode does at
     a lengthened step (its default ``seed``, 0); shown on the full-size plane
     with linear texture interpolation — here the same upsampling by ``scipy.ndimage.zoom``. Returns
-    the full-size image and the median time of the half-size render (the upsampling is the
-    texture's, not counted)."""
+    the full-size image and the median time of the half-size render in VTK frames (the upsampling
+    is the texture's, not counted)."""
     half = (max(1, size[0] // 2), max(1, size[1] // 2))
     o = dict(opts, step=2.0 * r.default_step(), jitter=True, seed=0)
-    res, t = timed(r, cam, half, g, model, o, repeats)
+    res, t = timed(r, cam, half, g, model, o, repeats, clock)
     return upsampled(res.radiance, size, half), t
 
 
@@ -152,21 +195,17 @@ def run_scene(name, n, size, max_spp, repeats, log):
     r = pa.Renderer(grid, transfer_function=tf, lights=lights)
     mask = metrics.light_mask(size[::-1], cam, size, lights)
     ref, info, how = nf.reference(name, r, lights, g, cam, mask, False, size)
-    step = r.default_step()
-    unit = vtk_time(grid, r, cam, size, step, max(15, 3 * repeats))
-    log(f"\n{name}: {scene_registry.DESCRIPTIONS[name]}")
-    log(f"  reference ({how}): {info['spp']} spp, relative error {info['relative_error']:.4f}, block noise "
-        f"{info['block_noise']:.4f}; VTK frame {unit * 1e3:.2f} ms")
+    clock = VTKClock(grid, r, cam, size, r.default_step())
     curves = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unconverged solves etc.: benchmarks/noise_free.py prints them
         previews, bases = {}, {}
         for label, model, opts in NOISE_FREE:
-            img, tp = previews[label] = preview(r, cam, size, g, model, opts, repeats)
-            res, t = timed(r, cam, size, g, model, opts, repeats)
+            img, tp = previews[label] = preview(r, cam, size, g, model, opts, repeats, clock)
+            res, t = timed(r, cam, size, g, model, opts, repeats, clock)
             bases[label] = res.radiance
-            curves[label] = [(tp / unit, metrics.block_relative_rmse(img, ref, mask)),
-                             (t / unit, metrics.block_relative_rmse(res.radiance, ref, mask))]
+            curves[label] = [(tp, metrics.block_relative_rmse(img, ref, mask)),
+                             (t, metrics.block_relative_rmse(res.radiance, ref, mask))]
         pt_models = [("path_traced", "path_traced", {}, 1), ("progressive", "progressive", {}, 0),
                      ("progressive, diffusion base", "progressive", {"flux_limited": False, "sweep_orders": 0}, 0)]
         if have_oidn():
@@ -178,7 +217,7 @@ def run_scene(name, n, size, max_spp, repeats, log):
             ladder = spp_ladder(max_spp, start)
             if model == "progressive":  # its drag frame and 0-sample resting frame are its base's (the same
                 img, t0 = previews[PROGRESSIVE[label]]  # renders, measured once), then the resting frames
-                pts.append((t0 / unit, metrics.block_relative_rmse(img, ref, mask)))
+                pts.append((t0, metrics.block_relative_rmse(img, ref, mask)))
                 res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False,
                                **dict(opts, samples_per_pixel=0))
                 if not np.array_equal(res.radiance, bases[PROGRESSIVE[label]]):
@@ -187,14 +226,21 @@ def run_scene(name, n, size, max_spp, repeats, log):
                 ladder = ladder[1:]
             for spp in ladder:
                 o = dict(opts, samples_per_pixel=spp, seed=1000 + spp)
-                res, t = timed(r, cam, size, g, model, o, repeats)
-                pts.append((t / unit, metrics.block_relative_rmse(res.radiance, ref, mask)))
+                res, t = timed(r, cam, size, g, model, o, repeats, clock)
+                pts.append((t, metrics.block_relative_rmse(res.radiance, ref, mask)))
                 final[label] = res
             if model == "progressive" and not opts.get("denoise"):  # (the same samples as progressive's)
                 res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False,
                                samples_per_pixel=max_spp, seed=1000 + max_spp, unbiased=True, **opts)
                 final[label + " (unbiased)"] = res
             curves[label] = pts
+    unit = float(np.median(clock.frames))
+    clock.close()
+    log(f"\n{name}: {scene_registry.DESCRIPTIONS[name]}")
+    log(f"  reference ({how}): {info['spp']} spp, relative error {info['relative_error']:.4f}, block noise "
+        f"{info['block_noise']:.4f}; VTK frame {unit * 1e3:.2f} ms (median of {len(clock.frames)}, "
+        f"{np.percentile(clock.frames, 10) * 1e3:.2f}–{np.percentile(clock.frames, 90) * 1e3:.2f} ms from the 10th "
+        "to the 90th percentile)")
     for label in final:
         res = final[label]
         b, e = mean_bias(res.radiance, res.std_error, ref, mask)
