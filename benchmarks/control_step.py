@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -34,6 +33,7 @@ import pv_ambient as pa
 import scenes as scene_registry
 from pv_ambient import metrics
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS, CONTROL_STEP_FRACTION
+from _timing import median_time
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 FRACTIONS = (1.0, 0.5, 0.25)
@@ -42,16 +42,12 @@ BASE = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}
 
 
 def march(r, cam, g, fraction, repeats=5):
-    """The base model's picture at ``fraction`` of the default step, and the median time of ``repeats``."""
+    """The base model's picture at ``fraction`` of the default step, and the median time of ``repeats``
+    (benchmarks/_timing.py's rule)."""
     kw = dict(camera=cam, window_size=nf.SIZE, model="diffusion", phase=g, progress_bar=False,
               step=fraction * r.default_step(), **BASE)
     img = r.render(**kw).radiance.astype(np.float64)
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        r.render(**kw)
-        times.append(time.perf_counter() - t)
-    return img, float(np.median(times))
+    return img, median_time(lambda k: r.render(**kw), repeats)
 
 
 def run_scene(name, log):

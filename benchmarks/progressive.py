@@ -7,7 +7,7 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
 
 * the time unit: VTK's ``fixed_point`` emission–absorption frame of the same view, measured
   *interleaved* with the models: before each timed render, ``VTK_FRAMES`` VTK frames (the camera
-  turned by 0.5° each, as benchmarks/trade.py renders them), and the render's time is divided
+  turned by 0.5° and back in turn; benchmarks/speed.py's peer), and the render's time is divided
   by their median; a model's time is the median of these ratios. The load of this shared
   machine drifts over seconds; one unit measured once per scene moved the ratios of the same
   render by up to 2.7× between runs. The printed VTK frame is the median of all of a scene's;
@@ -64,6 +64,7 @@ import pv_ambient as pa
 import scenes as scene_registry
 from pv_ambient import metrics
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
+from speed import VtkPeer
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 BUDGETS = (3, 5, 10, 20, 50, 100)
@@ -91,38 +92,26 @@ VTK_FRAMES = 3
 
 
 class VTKClock:
-    """VTK's ``fixed_point`` emission–absorption render of the scene's view (its TF, camera, window
-    size and ray step), kept open so that its frames can be interleaved with the timed renders."""
+    """VTK's ``fixed_point`` emission–absorption render of the scene's view (benchmarks/speed.py's
+    peer), kept open so that its frames can be interleaved with the timed renders; the camera
+    alternates between the view and the view turned by 0.5° (VTK skips a render when nothing
+    changed). Every frame's time is kept for the scene's printed median."""
 
     def __init__(self, grid, r, cam, size, step):
-        import pyvista as pv
-
-        from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
-
-        self.pl = pv.Plotter(off_screen=True, window_size=size)
-        add_vtk_volume(self.pl, grid, r, step=step, mapper="fixed_point")
-        cam.to_vtk(self.pl.camera)
-        self.pl.renderer.ResetCameraClippingRange()
-        self.pl.render()
+        self.peer = VtkPeer(grid, r, size, step)
+        self.views = (cam, nf.orbit(cam, 0.5))
         self.frames = []
         self.unit(6)  # warm-up, not kept
         self.frames = []
 
     def unit(self, n=VTK_FRAMES):
-        """Median time of ``n`` VTK frames rendered now (the camera turned by 0.5° and back in turn:
-        VTK skips a render when nothing changed); every frame is kept for the scene's printed median."""
-        times = []
-        for _ in range(n):
-            self.pl.camera.Azimuth(0.5 if len(self.frames) % 2 == 0 else -0.5)
-            self.pl.renderer.ResetCameraClippingRange()
-            t = time.perf_counter()
-            self.pl.ren_win.Render()
-            times.append(time.perf_counter() - t)
-            self.frames.append(times[-1])
+        """Median time of ``n`` VTK frames rendered now."""
+        times = [self.peer.frame(self.views[(len(self.frames) + i) % 2]) for i in range(n)]
+        self.frames += times
         return float(np.median(times))
 
     def close(self):
-        self.pl.close()
+        self.peer.close()
 
 
 def timed(r, cam, size, g, model, opts, repeats, clock):

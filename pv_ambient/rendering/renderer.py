@@ -620,16 +620,17 @@ class Renderer(SceneStages):
         if control_image is None and records and spp > 0:  # the first samples: the control's picture
             # N' of docs/progressive.rst, marched once per view at CONTROL_STEP_FRACTION of the step:
             # the samples correct it to the transfer equation's answer up to its quadrature error
-            args = records[0]
-            march, lrec = args[2], args[4]
+            args = list(records[0])
+            lrec = args[4]
             # the control's point lights: I/d² clamped at the equiangular radius (the path tracer
             # samples the singular part near a light; the control stays smooth there); for a light
             # farther than rc from the box the clamp changes nothing
             rc = EQ_RADIUS * self.geometry.diagonal
             points = np.asarray(lrec.vec)[np.asarray(lrec.kind) == POINT]
             if len(points) and rc * rc > lrec.d2min and float(np.min(self.geometry.distance_to(points))) < rc:
-                lrec = lrec._replace(d2min=rc * rc)
-            args = args[:2] + (march._replace(step=march.step * CONTROL_STEP_FRACTION),) + args[3:4] + (lrec,) + args[5:]
+                args[4] = lrec._replace(d2min=rc * rc)
+            args[2] = args[2]._replace(step=args[2].step * CONTROL_STEP_FRACTION)
+            args = tuple(args)
             w, h = req.window_size
             control_image = np.zeros((h, w, 3), np.float32)
             run_raycast(args, control_image, np.zeros((h, w), np.float32), backend=req.backend,
