@@ -505,6 +505,57 @@ def test_bitwise_identical_for_any_thread_count(tmp_path):
         assert out[1][k].max() > 0, k
 
 
+def test_row_stride_visits_every_row_once():
+    # the CPU drivers' row (and tile) order: (q·stride) mod n must be a permutation of 0 … n−1
+    from pv_ambient._kernels.raycast import row_stride
+
+    for n in range(0, 300):
+        s = row_stride(n)
+        assert sorted((q * s) % n for q in range(n)) == list(range(n)), n
+
+
+def test_path_driver_adds_samples_to_each_pixel_of_its_rows_once(monkeypatch):
+    """Why: the path tracer's CPU driver hands rows to threads in a strided order (load balance);
+    a band of rows must still get exactly its samples, pixel for pixel as one pixel's loop alone
+    gives them, and nothing outside the band, with one thread or two."""
+    from pv_ambient._kernels import pathtrace
+
+    captured = {}
+    real = pathtrace.pathtrace_image
+
+    def capture(*args):
+        captured.setdefault("args", args[:4])
+        return real(*args)
+
+    monkeypatch.setattr(pathtrace, "pathtrace_image", capture)
+    from pv_ambient import datasets
+
+    W, H = 11, 17
+    pa.render(datasets.cloud(n=12), window_size=(W, H), model="path_traced", samples_per_pixel=1,
+              camera=Camera((2, -3, 1), (0, 0, 0), (0, 0, 1), view_angle=35))
+    args = captured["args"]
+    r0, r1, s0, s1 = 3, H - 2, 5, 9
+    n0 = numba.get_num_threads()
+    out = []
+    for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+        numba.set_num_threads(threads)
+        try:
+            sums = (np.zeros((H, W, 3)), np.zeros((H, W, 3)), np.zeros((H, W)))
+            real(*args, s0, s1, r0, r1, *sums)
+        finally:
+            numba.set_num_threads(n0)
+        out.append(sums)
+    ref = (np.zeros((H, W, 3)), np.zeros((H, W, 3)), np.zeros((H, W)))
+    for j in range(r0, r1):
+        for i in range(W):
+            pathtrace.pathtrace_pixel(*args, s0, s1, j, i, *ref)
+    assert ref[2][r0:r1].max() > 0  # the medium covers part of the band
+    for sums in out:
+        for got, want in zip(sums, ref):
+            assert not got[:r0].any() and not got[r1:].any()
+            np.testing.assert_array_equal(got, want)
+
+
 # --- energy sanity ---------------------------------------------------------------------------------
 
 

@@ -109,7 +109,7 @@ from .equiangular import equiangular_pdf, equiangular_sample, equiangular_setup
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .majorant import walk_optical_depth
 from .phase import direction_about, phase_eval, phase_sample
-from .raycast import light_at, medium_albedo_emission
+from .raycast import light_at, medium_albedo_emission, row_stride
 from .rng import key
 from .tracking import delta_track, draw, ratio_track, sigma_lookup
 
@@ -633,8 +633,13 @@ def pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, 
 def pathtrace_image(view, medium, lights, paths, s0, s1, row0, row1, sum_rad, sum_sq, sum_hit):
     """CPU driver: add samples ``[s0, s1)`` of every pixel in rows ``[row0, row1)`` to the float64
     sums ``sum_rad`` and ``sum_sq`` (H, W, 3: Σx, Σx²) and ``sum_hit`` (H, W); the scene in the
-    records of :mod:`.records`."""
+    records of :mod:`.records`. The rows are visited in a golden-ratio stride order
+    (:func:`.raycast.row_stride`): ``prange`` hands each thread one contiguous run of iterations,
+    which would otherwise be one band of the image (all of the medium, or none of it)."""
     W = sum_hit.shape[1]
-    for j in prange(row0, row1):
+    n = row1 - row0
+    stride = row_stride(n)
+    for q in prange(n):
+        j = row0 + (q * stride) % n
         for i in range(W):
             pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, sum_hit)

@@ -26,7 +26,7 @@ from __future__ import annotations
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray
 from .pathtrace import add_sample, trace_path_first
-from .raycast import lit_source, medium_albedo_emission
+from .raycast import lit_source, medium_albedo_emission, row_stride
 
 
 @scalar
@@ -71,9 +71,12 @@ def residual_pixel(view, medium, lights, paths, cmodel, clights, cgrid, cambient
 def residual_image(view, medium, lights, paths, cmodel, clights, cgrid, cambient, cdiffusion, s0, s1, row0, row1,
                    sum_rad, sum_sq, sum_hit):
     """CPU driver: add residual samples ``[s0, s1)`` of every pixel in rows ``[row0, row1)`` to the
-    float64 sums (:func:`.pathtrace.pathtrace_image`'s layout)."""
+    float64 sums (:func:`.pathtrace.pathtrace_image`'s layout and row order)."""
     W = sum_hit.shape[1]
-    for j in prange(row0, row1):
+    n = row1 - row0
+    stride = row_stride(n)
+    for q in prange(n):
+        j = row0 + (q * stride) % n
         for i in range(W):
             residual_pixel(view, medium, lights, paths, cmodel, clights, cgrid, cambient, cdiffusion, s0, s1, j, i,
                            sum_rad, sum_sq, sum_hit)
