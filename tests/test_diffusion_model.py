@@ -133,3 +133,27 @@ def test_renders_run_blas_on_one_thread_and_restore_it(monkeypatch):
         after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
     assert seen and set(seen) == {1}  # one solve per light, each on one BLAS thread
     assert after == before and max(before) == 2  # (a BLAS that had 2 threads: the limit is visible)
+
+
+def test_isotropic_phase_keeps_the_fluence_alone_and_renders_the_same():
+    """Why: with mean cosine 0 the flux term of the radiance vanishes, so the renderer keeps φ alone
+    (a quarter of the memory the march reads). The kernel must read the φ-only layout as it reads φ
+    in the full one — bit for bit, coloured and grey — and keep the full layout for g ≠ 0."""
+    from pv_ambient._kernels.raycast import diffusion_light
+
+    rng = np.random.default_rng(3)
+    full = rng.uniform(-0.2, 2.0, (5, 6, 7, 12)).astype(np.float32)
+    for packed in (full, np.ascontiguousarray(full[..., 0:4])):  # coloured, grey
+        phi = np.ascontiguousarray(packed[..., 0::4])
+        for x, y, z in rng.uniform(-0.5, 6.5, (50, 3)):
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
+            want = diffusion_light(packed, x, y, z, *d, 0.0)
+            assert diffusion_light(phi, x, y, z, *d, 0.0) == want
+    r = renderer(physical_grid())
+    iso = render(r, "diffusion")
+    shapes = {r.cache[k].shape[3] for k in r.cache if k[0] == "diffusion"}
+    assert shapes <= {1, 3} and shapes
+    assert iso.max() > 0
+    render(r, "diffusion", phase=0.5)
+    assert {r.cache[k].shape[3] for k in r.cache if k[0] == "diffusion" and k[3] == 0.5} <= {4, 12}

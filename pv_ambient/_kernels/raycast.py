@@ -217,9 +217,10 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_
             out[i, j, k, q + 2] += sb
     if with_diff:  # diffusion's φ/4π at this data sample (isotropic phase), in the last slot
         q = (out.shape[3] // nch - 1) * nch
-        nd = diff.shape[3] // 4
+        per = 4 if diff.shape[3] % 4 == 0 else 1  # (φ, F) per channel, or φ alone
+        nd = diff.shape[3] // per
         for c in range(nch):
-            out[i, j, k, q + c] += max(diff[i, j, k, 4 * min(c, nd - 1)], 0.0) * INV_4PI_RC
+            out[i, j, k, q + c] += max(diff[i, j, k, per * min(c, nd - 1)], 0.0) * INV_4PI_RC
 
 
 @driver
@@ -331,16 +332,18 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
     light from the diffusion solve (docs/diffusion.rst), ω_o = −d toward the camera. ``diff`` is
     (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components; or
-    (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights)."""
+    (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights); or, for an
+    isotropic phase function (g = 0: the flux term vanishes), φ alone: (nx, ny, nz, 3) or (…, 1)."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(diff, x, y, z)
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
-    nch = diff.shape[3] // 4
+    per = 4 if diff.shape[3] % 4 == 0 else 1
+    nch = diff.shape[3] // per
     for c in range(nch):
-        q = 4 * c
+        q = per * c
         v = corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
-        if g != 0.0:  # the flux term (no contribution to an isotropic phase function's radiance)
+        if g != 0.0 and per == 4:  # the flux term (none in an isotropic phase function's radiance)
             v -= 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
                             + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
                             + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz)

@@ -253,7 +253,9 @@ class SceneStages:
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
                   sweep_orders=0):
         """Packed (φ, F) per channel of the multiply-scattered light of ``lights`` (docs/diffusion.rst),
-        (nx, ny, nz, 12) float32 at the data samples; one solve per light, cached per light, so a
+        (nx, ny, nz, 12) float32 at the data samples — (…, 4) when the channels are equal, and φ
+        alone, (…, 3) or (…, 1), for a phase function of mean cosine 0, whose radiance has no flux
+        term (the march reads a quarter of the memory); one solve per light, cached per light, so a
         relight re-solves only the light that changed (warm-started from its previous solution).
 
         One solve of the summed sources would cost less for the first frame (identical for plain
@@ -288,16 +290,20 @@ class SceneStages:
                                       tau=self.optical_depth(lt, lgrid, backend), light_grid=lgrid,
                                       flux_limited=bool(flux_limited), progress_bar=progress_bar, **extra)
                 packed = sol.packed()
-                if np.array_equal(packed[..., 0:4], packed[..., 4:8]) and np.array_equal(packed[..., 0:4],
-                                                                                       packed[..., 8:12]):
-                    packed = np.ascontiguousarray(packed[..., 0:4])  # grey: one channel read per sample
+                if g == 0.0:  # no flux term in the radiance (raycast.diffusion_light): φ alone
+                    packed = packed[..., 0::4]
+                n = packed.shape[3] // 3  # values per channel (0: one channel already)
+                if n and np.array_equal(packed[..., 0:n], packed[..., n:2 * n]) and np.array_equal(
+                        packed[..., 0:n], packed[..., 2 * n:]):
+                    packed = packed[..., 0:n]  # grey: one channel read per sample
+                packed = np.ascontiguousarray(packed)
                 self.cache[key] = packed
                 self.timings[f"diffusion {lt}"] = time.perf_counter() - t
                 self._diffusion_info = {"iterations": int(sol.iterations), "residual": float(sol.residual),
                                         "converged": bool(sol.converged)}
             part = self.cache[key]
-            if total is not None and total.shape != part.shape:  # grey and coloured lights: all 12
-                total, part = (np.tile(a, (1, 1, 1, 3)) if a.shape[3] == 4 else a for a in (total, part))
+            if total is not None and total.shape != part.shape:  # grey and coloured lights: all channels
+                total, part = (np.tile(a, (1, 1, 1, 3)) if a.shape[3] in (1, 4) else a for a in (total, part))
             total = part if total is None else total + part
         if len(keys) > 1:
             self.cache[("diffusion_sum", keys)] = total
