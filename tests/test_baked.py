@@ -131,16 +131,23 @@ def test_when_baking_applies():
         model="single_scattering", **kw).metadata["baked_lights"]
 
 
-def test_diffusion_folded_into_the_bake_equals_its_per_sample_lookup(monkeypatch):
+GREY_LIGHTS = [PointLight((0.3, -1.6, 0.9), intensity=3.0), DirectionalLight((0.2, 0.3, -1.0), irradiance=0.5)]
+
+
+@pytest.mark.parametrize("albedo, lights", [(0.9, LIGHTS), ((0.9, 0.6, 0.3), GREY_LIGHTS)],
+                         ids=["grey albedo, coloured lights", "coloured albedo, grey lights"])
+def test_diffusion_folded_into_the_bake_equals_its_per_sample_lookup(monkeypatch, albedo, lights):
     # light grid = data samples: diffusion's φ/4π joins the baked slot (the march is then single
     # scattering's); trilinear interpolation is linear, so the image equals reading φ per sample
-    # on top of the baked direct light, up to float32 rounding
+    # on top of the baked direct light, up to float32 rounding. With grey lights and a coloured
+    # albedo the direct light is grey but φ is not: the bake must keep three channels
     from pv_ambient.stages.propagation import LightGrid
 
-    r = renderer(physical_grid(sigma=1.5))  # optically thin cells: the light grid is the data grid
+    r = renderer(physical_grid(sigma=1.5, albedo=albedo), lights)  # optically thin: light grid = data grid
     assert r.light_grid().on_samples(r.optics.field.shape)
     folded = render(r, "diffusion", True).radiance.astype(np.float64)
     monkeypatch.setattr(LightGrid, "on_samples", lambda self, shape: False)
-    separate = render(renderer(physical_grid(sigma=1.5)), "diffusion", True).radiance.astype(np.float64)
+    separate = render(renderer(physical_grid(sigma=1.5, albedo=albedo), lights), "diffusion", True)
+    separate = separate.radiance.astype(np.float64)
     assert folded.max() > 0
     assert np.abs(folded - separate).max() <= 1e-5 * separate.max()

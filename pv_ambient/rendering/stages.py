@@ -96,8 +96,8 @@ class SceneStages:
             grey = bool(np.all(power[:, 0:1] == power)) and (ball.shape[3] < 4 or bool(
                 np.array_equal(ball[..., 1], ball[..., 2]) and np.array_equal(ball[..., 1], ball[..., 3])))
             diff = K.NONE12 if diffusion is None else diffusion
-            if diffusion is not None and diff.shape[3] == 12:
-                grey = False  # coloured diffusion solution
+            if diffusion is not None and diff.shape[3] in (3, 12):
+                grey = False  # coloured diffusion solution: φ alone (3) or with the flux (12)
             nch = 1 if grey else 3
             # a slot per point light, one for all directional lights (and the diffusion term)
             slots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
