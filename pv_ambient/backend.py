@@ -85,6 +85,17 @@ def cuda_problem():
     except ImportError:
         return ImportError("backend='cuda' needs the numba-cuda package, which is not installed: "
                            "pip install \"pv_ambient[cuda]\"")
+    version = getattr(numba_cuda, "__version__", None)
+    if version is None and getattr(numba_cuda, "__file__", None):  # an installed package: its metadata
+        try:
+            from importlib.metadata import version as dist_version
+
+            version = dist_version("numba-cuda")
+        except Exception:  # noqa: BLE001 - no metadata: nothing to check against
+            version = None
+    clash = numpy_clash(version)
+    if clash is not None:
+        return clash
     try:
         from numba import cuda
 
@@ -96,6 +107,35 @@ def cuda_problem():
                             "(numba.cuda.is_available() is False: check the NVIDIA driver and "
                             "CUDA_VISIBLE_DEVICES)")
     return None
+
+
+#: The last numba-cuda release seen to compile kernels through ``numpy.row_stack``, which NumPy 2.5
+#: removed: on an H100 with NumPy 2.5.2 its first kernel compilation failed with AttributeError
+#: (benchmarks/results/gpu.txt). Later releases are not known to fail and are let through.
+NUMBA_CUDA_ROW_STACK = (0, 30, 4)
+
+
+def numpy_clash(numba_cuda_version):
+    """An ImportError when numba-cuda ``numba_cuda_version`` cannot compile a kernel with this NumPy
+    (it needs ``numpy.row_stack``, gone in NumPy 2.5), else None.
+
+    >>> import numpy as np
+    >>> numpy_clash("0.31.0") is None
+    True
+    >>> hasattr(np, "row_stack") or "numpy<2.5" in str(numpy_clash("0.30.4"))
+    True
+    """
+    if hasattr(np, "row_stack") or not numba_cuda_version:
+        return None
+    try:
+        release = tuple(int(p) for p in str(numba_cuda_version).split(".")[:3])
+    except ValueError:
+        return None
+    if release > NUMBA_CUDA_ROW_STACK:
+        return None
+    return ImportError(f"backend='cuda': numba-cuda {numba_cuda_version} compiles kernels through "
+                       f"numpy.row_stack, which NumPy {np.__version__} no longer has; install "
+                       "\"numpy<2.5\" beside it (or a numba-cuda release that supports this NumPy)")
 
 
 def resolve_backend(backend="auto") -> str:

@@ -93,6 +93,20 @@ def test_no_device_error(monkeypatch):
     assert bk.resolve_backend("auto") == "cpu"
 
 
+def test_numba_cuda_that_needs_numpy_row_stack(monkeypatch):
+    # numba-cuda 0.30.4 compiled kernels through numpy.row_stack, which NumPy 2.5 removed (seen on an
+    # H100: benchmarks/results/gpu.txt): backend='cuda' says so before any work, 'auto' takes the CPU
+    monkeypatch.delenv("NUMBA_ENABLE_CUDASIM", raising=False)
+    fake = types.ModuleType("numba_cuda")
+    fake.__version__ = "0.30.4"
+    monkeypatch.setitem(sys.modules, "numba_cuda", fake)
+    monkeypatch.delattr(np, "row_stack", raising=False)
+    with pytest.raises(ImportError, match=r"numba-cuda 0\.30\.4 compiles kernels through numpy\.row_stack.*numpy<2\.5"):
+        pa.render(datasets.cloud(n=8), window_size=(4, 4), backend="cuda")
+    assert bk.resolve_backend("auto") == "cpu"
+    assert bk.numpy_clash("0.31.0") is None and bk.numpy_clash(None) is None
+
+
 def test_bad_backend_name():
     with pytest.raises(ValueError, match="backend"):
         pa.Renderer(datasets.cloud(n=8), backend="gpu")
