@@ -217,8 +217,7 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_
             out[i, j, k, q + 2] += sb
     if with_diff:  # diffusion's φ/4π at this data sample (isotropic phase), in the last slot
         q = (out.shape[3] // nch - 1) * nch
-        per = 4 if diff.shape[3] % 4 == 0 else 1  # (φ, F) per channel, or φ alone
-        nd = diff.shape[3] // per
+        per, nd = diffusion_layout(diff.shape[3])  # (φ, F) per channel, or φ alone
         for c in range(nch):
             out[i, j, k, q + c] += max(diff[i, j, k, per * min(c, nd - 1)], 0.0) * INV_4PI_RC
 
@@ -327,6 +326,18 @@ def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, amb
     return er * fr * dr, eg * fg * dg, eb * fb * db
 
 
+@scalar(inline=True)
+def diffusion_layout(n):
+    """``(per, nch)`` of a diffusion field with ``n`` values per sample: ``per`` values per channel
+    (4: φ and the flux F; 1: φ alone) and ``nch`` channels (3 coloured, 1 grey) — n = 12, 4, 3 or 1.
+
+    >>> diffusion_layout(12), diffusion_layout(4), diffusion_layout(3), diffusion_layout(1)
+    ((4, 3), (4, 1), (1, 3), (1, 1))
+    """
+    per = 4 if n % 4 == 0 else 1
+    return per, n // per
+
+
 @scalar
 def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
@@ -338,8 +349,7 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
-    per = 4 if diff.shape[3] % 4 == 0 else 1
-    nch = diff.shape[3] // per
+    per, nch = diffusion_layout(diff.shape[3])
     for c in range(nch):
         q = per * c
         v = corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)

@@ -85,7 +85,7 @@ class SceneStages:
         relight rebakes it from the cached light volumes (one pass over the light grid).
         ``diffusion``: a diffusion solution (:meth:`diffusion`) on the data samples, which must be
         the light-grid nodes (``grid.on_samples``), to add as ``max(φ, 0)/4π`` (isotropic phase)."""
-        from .._kernels.raycast import bake_incident
+        from .._kernels.raycast import bake_incident, diffusion_layout
 
         key = ("incident", tuple(lights), grid.key()) + tuple(key)
         if key not in self.cache:
@@ -96,8 +96,8 @@ class SceneStages:
             grey = bool(np.all(power[:, 0:1] == power)) and (ball.shape[3] < 4 or bool(
                 np.array_equal(ball[..., 1], ball[..., 2]) and np.array_equal(ball[..., 1], ball[..., 3])))
             diff = K.NONE12 if diffusion is None else diffusion
-            if diffusion is not None and diff.shape[3] in (3, 12):
-                grey = False  # coloured diffusion solution: φ alone (3) or with the flux (12)
+            if diffusion is not None and diffusion_layout(diff.shape[3])[1] == 3:
+                grey = False  # coloured diffusion solution
             nch = 1 if grey else 3
             # a slot per point light, one for all directional lights (and the diffusion term)
             slots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
@@ -266,6 +266,7 @@ class SceneStages:
         under ``("diffusion_medium",)``); each light's optical depth comes from
         :meth:`optical_depth` on the light grid of ``grid``'s factor. ``sweep_orders``: the first
         scattering orders by transport sweeps (docs/diffusion.rst §5)."""
+        from .._kernels.raycast import diffusion_layout
         from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light
 
         g = float(phase.mean_cosine)
@@ -292,8 +293,8 @@ class SceneStages:
                 packed = sol.packed()
                 if g == 0.0:  # no flux term in the radiance (raycast.diffusion_light): φ alone
                     packed = packed[..., 0::4]
-                n = packed.shape[3] // 3  # values per channel (0: one channel already)
-                if n and np.array_equal(packed[..., 0:n], packed[..., n:2 * n]) and np.array_equal(
+                n, nch = diffusion_layout(packed.shape[3])  # values per channel, channels
+                if nch == 3 and np.array_equal(packed[..., 0:n], packed[..., n:2 * n]) and np.array_equal(
                         packed[..., 0:n], packed[..., 2 * n:]):
                     packed = packed[..., 0:n]  # grey: one channel read per sample
                 packed = np.ascontiguousarray(packed)
@@ -303,7 +304,8 @@ class SceneStages:
                                         "converged": bool(sol.converged)}
             part = self.cache[key]
             if total is not None and total.shape != part.shape:  # grey and coloured lights: all channels
-                total, part = (np.tile(a, (1, 1, 1, 3)) if a.shape[3] in (1, 4) else a for a in (total, part))
+                total, part = (np.tile(a, (1, 1, 1, 3)) if diffusion_layout(a.shape[3])[1] == 1 else a
+                               for a in (total, part))
             total = part if total is None else total + part
         if len(keys) > 1:
             self.cache[("diffusion_sum", keys)] = total
