@@ -72,7 +72,8 @@ TOP_KEYS = {"version", "volume", "scalars", "transfer_function", "phase", "light
 
 @dataclass
 class Scene:
-    """A parsed scene: the grid and the keyword arguments for Renderer and render."""
+    """A parsed scene: the grid (None from :func:`scene_options`) and the keyword arguments for
+    Renderer and render."""
 
     grid: object
     renderer_kwargs: dict = field(default_factory=dict)
@@ -110,6 +111,20 @@ def _load_volume(spec, base: Path):
 
 def parse_scene(data, base_dir=".") -> Scene:
     """Parse a scene dict (the JSON object) into a :class:`Scene`."""
+    return _parse(data, Path(base_dir), read_volume=True)
+
+
+def scene_options(data, base_dir=".") -> Scene:
+    """Parse a scene dict without its volume: a :class:`Scene` whose ``grid`` is None.
+
+    Every key is checked as :func:`parse_scene` checks it but ``volume``, which is neither
+    required nor read: ``pv-ambient series --volumes`` replaces it by each time step, read by the
+    worker that renders the frame (docs/series.rst, "The command line").
+    """
+    return _parse(data, Path(base_dir), read_volume=False)
+
+
+def _parse(data, base: Path, *, read_volume: bool) -> Scene:
     if not isinstance(data, dict):
         raise TypeError(f"a scene must be a JSON object, got {type(data).__name__}")
     version = data.get("version", SCENE_VERSION)
@@ -118,16 +133,15 @@ def parse_scene(data, base_dir=".") -> Scene:
     unknown = set(data) - TOP_KEYS - MODEL_KEYS
     if unknown:
         warnings.warn(f"scene keys {sorted(unknown)} are not part of scene format {SCENE_VERSION}; ignored",
-                      UserWarning, stacklevel=2)
-    if "volume" not in data:
+                      UserWarning, stacklevel=3)
+    if read_volume and "volume" not in data:
         raise ValueError("scene needs a 'volume' (a .vti path or {'dataset': name})")
-    base = Path(base_dir)
     image = data.get("image", {"width": 512, "height": 512})
     if not isinstance(image, dict) or set(image) - {"width", "height"}:
         raise ValueError(f"image must be {{'width': int, 'height': int}}, got {image!r}")
     size = check_window_size((image.get("width", 512), image.get("height", 512)), "image width/height")
     check_image_memory(size, data.get("model", "emission_absorption"))  # before the volume is read
-    grid = _load_volume(data["volume"], base)
+    grid = _load_volume(data["volume"], base) if read_volume else None
     rk = {"transfer_function": data.get("transfer_function"), "scalars": data.get("scalars"),
           "lights": data.get("lights"), "preference": data.get("preference", "point"),
           "nan_policy": data.get("nan_policy", "raise"),
@@ -151,14 +165,23 @@ def parse_scene(data, base_dir=".") -> Scene:
     return Scene(grid=grid, renderer_kwargs=rk, render_kwargs=kw, display=dict(display))
 
 
-def load_scene(path) -> Scene:
-    """Read a scene file."""
+def read_scene(path) -> dict:
+    """The JSON object of a scene file, not yet checked (:func:`parse_scene`, :func:`scene_options`):
+    the one place scene files are read, by ``pv-ambient render`` and ``pv-ambient series``."""
     path = Path(path)
     try:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
         raise ValueError(f"scene file {str(path)!r} is not valid JSON: {exc}") from None
-    scene = parse_scene(data, base_dir=path.parent)
+    if not isinstance(data, dict):
+        raise TypeError(f"a scene must be a JSON object, got {type(data).__name__}")
+    return data
+
+
+def load_scene(path) -> Scene:
+    """Read a scene file."""
+    path = Path(path)
+    scene = parse_scene(read_scene(path), base_dir=path.parent)
     scene.source = str(path)
     return scene
 

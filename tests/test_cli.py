@@ -10,7 +10,7 @@ import pytest
 
 import pv_ambient as pa
 from pv_ambient import cli
-from pv_ambient.scene import load_scene, parse_scene, render_scene
+from pv_ambient.scene import load_scene, parse_scene, read_scene, render_scene, scene_options
 
 pv = pytest.importorskip("pyvista")
 
@@ -96,6 +96,32 @@ def test_bad_scenes(tmp_path, scene, err, match):
 def test_unknown_top_level_key_warns(tmp_path):
     with pytest.warns(UserWarning, match="not part of scene format 1"):
         parse_scene({"volume": {"dataset": "cloud", "n": 8}, "future_knob": 3}, base_dir=tmp_path)
+
+
+def test_scene_options_check_every_key_but_the_volume(tmp_path):
+    # what `pv-ambient series --volumes` parses: the volume is neither required nor read
+    scene = {"volume": "missing.vti", "image": {"width": 8, "height": 6}, "model": "single_scattering",
+             "camera": CAMERA, "backend": "cpu"}
+    s = scene_options(scene, base_dir=tmp_path)
+    assert s.grid is None and s.render_kwargs["window_size"] == (8, 6) and s.renderer_kwargs["backend"] == "cpu"
+    assert scene_options({"model": "diffusion"}).grid is None
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        parse_scene(scene, base_dir=tmp_path)
+    for bad, err, match in (({"quality": "best"}, ValueError, "quality"), ({"version": 2}, ValueError, "version 2"),
+                            ({"display": {"gamma": 2}}, ValueError, "display must hold only")):
+        with pytest.raises(err, match=match):
+            scene_options(bad)
+
+
+def test_read_scene_is_the_one_reader(tmp_path):
+    assert read_scene(_write(tmp_path, {"volume": {"dataset": "cloud"}})) == {"volume": {"dataset": "cloud"}}
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(ValueError, match="is not valid JSON"):
+        read_scene(bad)
+    (tmp_path / "list.json").write_text("[1, 2]")
+    with pytest.raises(TypeError, match="a scene must be a JSON object, got list"):
+        read_scene(tmp_path / "list.json")
 
 
 def test_cli_errors_exit_2_with_message(tmp_path, capsys):
