@@ -7,12 +7,12 @@ imports without pyvista or vtk; the PyVista accessor ``grid.ambient`` is registe
 
 __version__ = "0.4.0"
 
-from .inputs.camera import Camera
+from .inputs.camera import Camera, orbit
 from .inputs.lights import DirectionalLight, PointLight
 from .rendering.renderer import Renderer, render
 from .rendering.result import RenderResult
 from .inputs.transfer import TransferFunction
-from .series import orbit, render_series
+from .series import render_series
 
 __all__ = ["Camera", "DirectionalLight", "PointLight", "Renderer", "RenderResult", "TransferFunction", "orbit", "render",
            "render_series"]

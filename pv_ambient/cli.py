@@ -1,10 +1,15 @@
-"""``pv-ambient`` command line: ``render SCENE.json``, ``demo``, ``bench``.
+"""``pv-ambient`` command line: ``render SCENE.json``, ``series SCENE.json``, ``demo``, ``bench``.
 
-The CLI and the Python API share one code path (:func:`pv_ambient.scene.render_scene`).
+The CLI and the Python API share one code path: ``render`` is :func:`pv_ambient.scene.render_scene`,
+``series`` is :func:`pv_ambient.render_series` (:func:`series_from_scene`, docs/series.rst). Both
+read their scene file through :mod:`pv_ambient.scene` (the JSON scene format), so a scene means the
+same to both commands. Errors of the user's making (a bad scene, option or file) print one line and
+exit with status 2, without a traceback.
 
 Examples
 --------
 ``pv-ambient render scene.json -o out.png --radiance out.npy``
+``pv-ambient series scene.json --orbit 36 -o orbit --movie orbit.mp4``
 ``pv-ambient demo -o demo_output``
 """
 
@@ -16,13 +21,23 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from .backend import BACKENDS
+from .inputs.camera import orbit
 from .rendering.presets import ALL_MODELS
 from .rendering.result import TONEMAPS
+from .series.driver import SeriesResult, render_series
+from .series.volumes import resolve_volumes
 
 
 #: What ``-o`` and ``--radiance`` may end in (checked before any work).
 OUTPUT_SUFFIXES = (".png", ".npy", ".npz")
+#: ``series --scheduler`` values besides an address, and the ``client`` of
+#: :func:`pv_ambient.render_series` each gives.
+CLIENTS = {"local": None, "synchronous": "synchronous"}
+#: Schedulers of the command line besides an address.
+SCHEDULERS = tuple(CLIENTS)
 
 
 def _check_outputs(args):
@@ -143,6 +158,99 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+# -- pv-ambient series: time series and orbits (pv_ambient.series, docs/series.rst) -------------------
+def add_cli_parser(sub) -> argparse.ArgumentParser:
+    """Add ``pv-ambient series`` to the CLI's sub-parsers."""
+    s = sub.add_parser("series", help="render a time series (--volumes) or a camera orbit (--orbit) of a scene "
+                                      "into numbered frames, on dask.distributed")
+    s.add_argument("scene", help="scene file (JSON, as for render); its volume is used by --orbit")
+    what = s.add_mutually_exclusive_group(required=True)
+    what.add_argument("--volumes", help="time steps: a glob (quote it) or a .pvd collection; each replaces the "
+                                        "scene's volume")
+    what.add_argument("--orbit", type=int, metavar="N", help="N cameras on a circle around the scene's volume, "
+                                                             "starting at the scene's camera")
+    s.add_argument("-o", "--output", required=True, help="output folder (frame_0000.png, ...)")
+    s.add_argument("--movie", help="also write the frames as a movie (.mp4, .gif; needs the 'movie' extra)")
+    s.add_argument("--fps", type=float, default=10.0, help="movie frames per second (default 10)")
+    s.add_argument("--scheduler", default="local",
+                   help="'local' (a LocalCluster, default), 'synchronous' (this process) or a scheduler address")
+    s.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+    s.add_argument("--radiance", action="store_true", help="also write frame_NNNN.npy (linear float32 radiance)")
+    s.add_argument("--elevation", type=float, help="orbit elevation in degrees (default: the scene camera's)")
+    s.add_argument("--overwrite", action="store_true", help="render frames whose files exist too")
+    s.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s.set_defaults(func=cli_series)
+    return s
+
+
+def series_from_scene(scene_path, *, volumes=None, orbit_frames=None, elevation=None, **kwargs) -> SeriesResult:
+    """:func:`render_series` of a JSON scene file (what ``pv-ambient series`` runs).
+
+    With ``volumes`` (a glob, a ``.pvd`` or a list of paths) every file replaces the scene's
+    ``volume``; with ``orbit_frames`` the scene's volume is seen by :func:`orbit` cameras that
+    start at the scene's camera. ``kwargs`` go to :func:`render_series`.
+    """
+    from .scene import parse_scene, read_scene, scene_options
+
+    scene_path = Path(scene_path)
+    data = read_scene(scene_path)
+    if (volumes is None) == (orbit_frames is None):
+        raise ValueError("give volumes (a time series) or orbit_frames (an orbit), one of the two")
+    base = scene_path.parent
+    if volumes is not None:
+        vols = resolve_volumes(volumes)
+        # the options of the scene, checked once here; its volume is not read: the time steps stay
+        # on the workers (each frame reads its own file)
+        scene = scene_options(data, base_dir=base)
+        cameras = None
+    else:
+        scene = parse_scene(data, base_dir=base)
+        spec = data.get("volume")
+        vols = [str(base / spec) if isinstance(spec, str) and not Path(spec).is_absolute() else
+                spec if isinstance(spec, str) else scene.grid]
+        cameras = orbit(scene.grid, orbit_frames, elevation=elevation, start=scene.render_kwargs.get("camera"))
+    kw = dict(scene.render_kwargs)
+    camera = kw.pop("camera", None)
+    model = kw.pop("model", "emission_absorption")
+    rk = scene.renderer_kwargs
+    return render_series(vols, transfer_function=rk["transfer_function"], lights=rk["lights"],
+                         scalars=rk["scalars"], preference=rk["preference"], nan_policy=rk["nan_policy"],
+                         backend=rk["backend"], camera=None if cameras is not None else camera, cameras=cameras,
+                         model=model, display=scene.display, **kw, **kwargs)
+
+
+def cli_series(args) -> int:
+    """``pv-ambient series``: exit status 0 when every frame is there, else the number that failed
+    (at most 100); 130 when interrupted (re-run to render the missing frames)."""
+    client = CLIENTS.get(args.scheduler, args.scheduler)
+    if args.workers is not None and client is not None:
+        print("pv-ambient: error: --workers sets the size of the local cluster (--scheduler local)", file=sys.stderr)
+        return 2
+    try:
+        res = series_from_scene(args.scene, volumes=args.volumes, orbit_frames=args.orbit, elevation=args.elevation,
+                                out_dir=args.output, client=client, workers=args.workers, radiance=args.radiance,
+                                overwrite=args.overwrite, movie=args.movie, fps=args.fps,
+                                progress_bar=not args.no_progress)
+    except (ImportError, OSError) as exc:  # a missing extra, file or scheduler (OSError: no connection)
+        print(f"pv-ambient: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        done = len(list(Path(args.output).glob("frame_*.png")))
+        print(f"pv-ambient: interrupted; {done} frames are in {args.output} (no partial file); run the same "
+              "command again to render the missing ones", file=sys.stderr)
+        return 130
+    for f in res.failed:
+        print(f"pv-ambient: frame {f.index:04d} ({f.volume}) failed: {f.error}", file=sys.stderr)
+    rendered = [f for f in res.frames if f.status == "rendered"]
+    if rendered:
+        total = np.array([f.times.get("total", 0.0) for f in rendered])
+        print(f"per frame: mean {total.mean():.3f} s, min {total.min():.3f} s, max {total.max():.3f} s")
+    if args.movie and res.n_failed:
+        print(f"pv-ambient: no movie written: {res.n_failed} frames failed", file=sys.stderr)
+    print(f"series: {res.summary()}")
+    return res.exit_status
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="pv-ambient", description="Ambient volume scattering for PyVista volumes")
     sub = p.add_subparsers(dest="command", required=True)
@@ -177,7 +285,6 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("rest", nargs=argparse.REMAINDER, metavar="[NAME] [OPTIONS]",
                    help=f"NAME is one of {', '.join(BENCHMARKS)} (default trade); OPTIONS go to the benchmark")
     b.set_defaults(func=_cmd_bench, bench_parser=b)
-    from .series import add_cli_parser  # pv-ambient series: time series and orbits (pv_ambient.series)
     add_cli_parser(sub)
     return p
 

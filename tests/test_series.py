@@ -403,11 +403,11 @@ def test_cli_usage_errors_exit_2(steps, tmp_path, capsys):
 def test_own_cluster_workers_start_with_their_numba_threads():
     """client=None: the workers' NUMBA_NUM_THREADS is the Numba threads they use (no idle pool
     threads spinning beside the other workers), 1 by default, numba_threads= when given."""
-    from pv_ambient.series import _get_client
+    from pv_ambient.series.driver import open_client
 
     before = os.environ.get("NUMBA_NUM_THREADS")
     for asked, expected in ((None, 1), (2, 2)):
-        c, owned, n, threads = _get_client(None, 1, asked)
+        c, owned, n, threads = open_client(None, 1, asked)
         assert os.environ.get("NUMBA_NUM_THREADS") == before  # this process' environment as it was
         try:
             got = c.run(lambda: (os.environ.get("NUMBA_NUM_THREADS"), __import__("numba").config.NUMBA_NUM_THREADS))

@@ -9,7 +9,9 @@ For image-plane point (u, v) ∈ [0, 1]² (u right, v down) and aspect = W/H::
 ``view_angle`` is VTK's vertical angle in degrees; ``parallel_scale`` is half the image height
 in world units. Pixel (i, j) (column i, row j from the top) is sampled at its centre
 ``u = (i + ½)/W``, ``v = (j + ½)/H``. The array-core :class:`Camera` needs neither pyvista nor
-vtk; :func:`as_camera` converts PyVista/VTK cameras and plotters.
+vtk; :func:`as_camera` converts PyVista/VTK cameras and plotters. :func:`orbit` gives the cameras
+of an orbit movie, each frame of :func:`pv_ambient.render_series` seeing the volume from one of
+them (docs/series.rst).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validation import check_real, check_vector, check_window_size
+from .validation import check_int, check_real, check_vector, check_window_size
 
 #: Index of each camera parameter in the float64 array handed to kernels.
 CAM_POS, CAM_FWD, CAM_RIGHT, CAM_UP, CAM_TAN, CAM_ASPECT, CAM_PARALLEL, CAM_SCALE = 0, 3, 6, 9, 12, 13, 14, 15
@@ -283,3 +285,89 @@ def as_camera(camera, *, window_size=None, bounds=None):
     elif size is None:
         size = (512, 512)
     return cam, size
+
+
+def orbit(grid, n_frames, *, elevation=None, start=None, view_up=None, distance=None, degrees=360.0):
+    """Cameras on a circle around the volume: the camera path of an orbit movie.
+
+    As PyVista's ``Plotter.generate_orbital_path``, the cameras move on a circle in the plane
+    normal to ``view_up`` around the focal point, looking at it; here the circle starts at a
+    camera (``start``: PyVista's default view of the volume when None) so frame 0 is the view
+    the user set up, and the frames are ``degrees / n_frames`` apart (360: the last frame is one
+    step before the first, so the movie loops).
+
+    Parameters
+    ----------
+    grid : pyvista.ImageData, pv_ambient.inputs.grid.Volume or sequence of 6 float
+        The volume (or its bounds); it places the default start camera.
+    n_frames : int
+        Number of cameras (≥ 1).
+    elevation : float, optional
+        Angle in degrees of the cameras above the orbit's plane through the focal point; the
+        start camera's when None.
+    start : Camera, pyvista.Camera, dict or list, optional
+        The first camera (its focal point, distance, view angle and projection are kept).
+    view_up : sequence of 3 float, optional
+        The orbit's axis and every camera's view-up; the start camera's when None.
+    distance : float, optional
+        Camera distance from the focal point; the start camera's when None.
+    degrees : float, default: 360.0
+        The arc the orbit covers.
+
+    Returns
+    -------
+    list of Camera
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pv_ambient import orbit
+    >>> cams = orbit([-1, 1, -1, 1, -1, 1], 4, elevation=0.0,
+    ...              start={"position": [0, -4, 0], "focal_point": [0, 0, 0], "view_up": [0, 0, 1]})
+    >>> [(np.round(c.position, 6) + 0.0).tolist() for c in cams]
+    [[0.0, -4.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [-4.0, 0.0, 0.0]]
+    """
+    n = check_int(n_frames, "n_frames", lo=1)
+    degrees = check_real(degrees, "degrees")
+    if start is None:
+        bounds = getattr(grid, "bounds", None)
+        if bounds is None and getattr(grid, "geometry", None) is not None:
+            bounds = grid.geometry.bounds
+        if bounds is None:
+            bounds = grid
+        try:
+            bounds = [float(b) for b in bounds]
+        except TypeError:
+            raise TypeError(f"grid must be an ImageData, a Volume or 6 bounds, got {type(grid).__name__}") from None
+        if len(bounds) != 6:
+            raise ValueError(f"grid bounds must be 6 numbers, got {len(bounds)}")
+        start = default_camera(bounds)
+    else:
+        start, _ = as_camera(start)
+    focal = np.array(start.focal_point)
+    axis = np.array(start.view_up if view_up is None else view_up, dtype=np.float64)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0:
+        raise ValueError(f"view_up must be a non-zero 3-vector, got {view_up!r}")
+    axis = axis / np.linalg.norm(axis)
+    offset = np.array(start.position) - focal
+    radius = np.linalg.norm(offset) if distance is None else check_real(distance, "distance", lo=0.0, lo_open=True)
+    height = float(offset @ axis)
+    flat = offset - height * axis
+    if np.linalg.norm(flat) < 1e-12 * np.linalg.norm(offset):
+        # the start camera looks along the axis: begin the circle on any direction normal to it
+        flat = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 = flat / np.linalg.norm(flat)
+    e2 = np.cross(axis, e1)
+    if elevation is None:
+        elev = np.arctan2(height, np.linalg.norm(offset - height * axis))
+    else:
+        elev = np.radians(check_real(elevation, "elevation", lo=-90.0, hi=90.0, lo_open=True, hi_open=True))
+    cams = []
+    for k in range(n):
+        phi = np.radians(degrees) * k / n
+        ring = np.cos(phi) * e1 + np.sin(phi) * e2
+        pos = focal + radius * (np.cos(elev) * ring + np.sin(elev) * axis)
+        cams.append(Camera(position=tuple(pos), focal_point=tuple(focal), view_up=tuple(axis),
+                           view_angle=start.view_angle, parallel_projection=start.parallel_projection,
+                           parallel_scale=start.parallel_scale))
+    return cams
