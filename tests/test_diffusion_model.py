@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pv_ambient.inputs.lights import PointLight
-from test_ambient import LIGHTS, physical_grid, rel, render, renderer
+from .test_ambient import LIGHTS, physical_grid, rel, render, renderer
 
 
 def test_albedo_zero_is_single_scattering():
@@ -93,7 +93,7 @@ def test_flux_limited_converges_with_a_light_inside():
     the default of 20 they converge without a warning."""
     import warnings
 
-    from test_extremes import scaled_scene
+    from .test_extremes import scaled_scene
 
     from pv_ambient.stages import diffusion as dm
 

@@ -645,11 +645,7 @@ def test_depth_one_reference_equals_single_scattering_model():
     3 standard errors + the model's step bias (measured as the step halves). Per pixel, at a
     false-alarm rate of 0.27 % per pixel, so ≥ 97 % of the 256 pixels must pass (and the image mean
     must agree within 3 standard errors + bias)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).parent))
-    from test_ambient import CAM, physical_grid, renderer
+    from .test_ambient import CAM, physical_grid, renderer
 
     r = renderer(physical_grid(n=17, sigma=3.0, albedo=0.9))
     h = float(np.min(r.geometry.spacing))
