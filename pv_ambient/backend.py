@@ -138,14 +138,39 @@ def numpy_clash(numba_cuda_version):
                        "\"numpy<2.5\" beside it (or a numba-cuda release that supports this NumPy)")
 
 
+def kernel_compiled(kind) -> bool:
+    """Whether the CPU driver of ``kind`` (``"raycast"`` or ``"path_trace"``) is compiled in this
+    process or held by Numba's on-disk cache (else its first launch compiles it). True where this
+    Numba keeps its cache elsewhere: say nothing rather than something wrong."""
+    if kind == "path_trace":
+        from ._kernels.pathtrace import pathtrace_image as fn
+    else:
+        from ._kernels.raycast import raycast_image as fn
+    try:
+        return bool(fn.signatures) or os.path.exists(fn._cache._cache_file._index_path)
+    except AttributeError:
+        return True
+
+
+def check_backend(backend, name="backend") -> str:
+    """``backend`` when it names a backend (:data:`BACKENDS`), else a ValueError that names the
+    argument: the one check of a backend's name (the renderer, the scene format, the series and the
+    command line ask it).
+
+    >>> check_backend("cpu")
+    'cpu'
+    """
+    if not isinstance(backend, str) or backend not in BACKENDS:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
+    return backend
+
+
 def resolve_backend(backend="auto") -> str:
     """``"cpu"`` or ``"cuda"``: the backend ``backend`` stands for on this machine.
 
     Raises the :func:`cuda_problem` error for ``"cuda"`` when CUDA cannot run.
     """
-    if not isinstance(backend, str) or backend not in BACKENDS:  # callers check it; this layer sits below inputs
-        raise ValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
-    if backend == "cpu":
+    if check_backend(backend) == "cpu":
         return "cpu"
     problem = cuda_problem()
     if problem is None:

@@ -98,11 +98,11 @@ def test_tube_front_equals_beer_lambert_at_albedo_zero():
     grid = physical_grid(n=25, sigma=2.0, albedo=0.0, noise=False)
     grid["sigma_t"] = np.full(grid.n_points, 2.0, np.float32)
     r = renderer(grid)
-    lg = r.light_grid(1.0)
-    radius = r._radius("3 voxels")
+    lg = r.stages.light_grid(1.0)
+    radius = resolve_radius("3 voxels", "ambient_scattering", r.geometry.spacing)
     for light in LIGHTS:
-        tau = r.optical_depth(light, lg)
-        front = r.front_depth(light, lg, radius, as_phase(None), quality="preview")
+        tau = r.stages.optical_depth(light, lg)
+        front = r.stages.front_depth(light, lg, radius, as_phase(None), quality="preview")
         for c in range(3):
             np.testing.assert_allclose(np.exp(-front[..., c]), np.exp(-tau), rtol=1e-3, atol=0)
 
@@ -110,9 +110,9 @@ def test_tube_front_equals_beer_lambert_at_albedo_zero():
 def test_tube_front_in_vacuum_is_one():
     grid = physical_grid(n=9, sigma=0.0)
     r = renderer(grid)
-    lg = r.light_grid(1.0)
-    radius = r._radius("2 voxels")
-    assert np.all(r.front_depth(LIGHTS[0], lg, radius, as_phase(None), quality="preview") == 0.0)
+    lg = r.stages.light_grid(1.0)
+    radius = resolve_radius("2 voxels", "ambient_scattering", r.geometry.spacing)
+    assert np.all(r.stages.front_depth(LIGHTS[0], lg, radius, as_phase(None), quality="preview") == 0.0)
 
 
 def test_camera_move_and_relight_reuse_caches():
@@ -159,7 +159,7 @@ def test_auto_rules():
     above = PointLight((0, 0, 0.9), intensity=1.0)
     below = DirectionalLight((0, 0, 1.0))  # propagates +z: enters through the bottom face
     r = renderer(wall, lights=[above, below])
-    assert r.active_lights(r.light_grid()) == (below,)
+    assert r.stages.active_lights(r.lights, r.stages.light_grid()) == (below,)
     res = r.render(camera=CAM, window_size=SIZE, model="single_scattering")
     assert res.metadata["lights"] == 1
     # with scattering and a light: ambient scattering; g = 0 uses a 1D table slice

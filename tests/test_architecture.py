@@ -168,6 +168,51 @@ def test_no_stage_takes_the_renderer():
     assert checked > 20
 
 
+#: What ``rendering/`` may import from ``_kernels``: plain records and the model ids — data, no
+#: compiled function. Every kernel runs through ``backend`` or a stage of ``stages/``.
+RENDERING_KERNEL_IMPORTS = {"pv_ambient._kernels.records", "pv_ambient._kernels.models"}
+
+
+def test_rendering_launches_no_kernel():
+    """rendering/ decides which stage runs when; it computes nothing itself: it imports no compiled
+    kernel (only records and model ids from ``_kernels``) and calls no ``numba`` entry point."""
+    bad = []
+    for f in sorted((PKG / "rendering").rglob("*.py")):
+        for target, names, line in imports(f):
+            if target.startswith("numba"):
+                bad.append(f"{f.relative_to(ROOT)}:{line} imports {target}")
+            if target.startswith("pv_ambient._kernels") and target not in RENDERING_KERNEL_IMPORTS:
+                bad.append(f"{f.relative_to(ROOT)}:{line} imports {target}")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_stage_cache_is_a_component_of_the_renderer():
+    """The per-scene stages are an object the renderer owns (``Renderer.stages``), not a base class:
+    Renderer derives from ``object`` alone, and its stages hold no renderer."""
+    from pv_ambient.rendering.scene_stages import SceneStages
+
+    assert pa.Renderer.__mro__ == (pa.Renderer, object)
+    r = pa.Renderer(datasets.cloud(n=8))
+    assert isinstance(r.stages, SceneStages)
+    assert not any(isinstance(v, pa.Renderer) for v in vars(r.stages).values())
+
+
+def test_kernels_own_the_model_ids():
+    """The ray-cast kernel's model ids are one enumeration in ``_kernels`` (the bottom layer); the
+    model table reads them from there, and no module outside ``_kernels`` writes an id as a literal."""
+    from pv_ambient._kernels import models
+    from pv_ambient.rendering.presets import MODEL_IDS, MODEL_TABLE
+
+    ids = {m.name: m.kernel_id for m in MODEL_TABLE if m.kernel_id is not None}
+    assert ids == MODEL_IDS and ids == models.RAYCAST_MODEL_IDS
+    src = (PKG / "rendering" / "presets.py").read_text()
+    tree = ast.parse(src)
+    literal_ids = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call)
+                   and getattr(n.func, "id", "") == "ModelSpec" and len(n.args) > 1
+                   and isinstance(n.args[1], ast.Constant) and n.args[1].value is not None]
+    assert not literal_ids, f"rendering/presets.py writes model ids as literals on lines {literal_ids}"
+
+
 def test_every_subpackage_is_installed():
     # what a non-editable install carries: pyproject's package discovery must find every folder
     # with Python modules (an editable install would hide a missing one)

@@ -39,7 +39,7 @@ def test_baked_nodes_equal_independent_numpy_sum():
     r = renderer()
     render(r, "single_scattering", True)
     (key, (inc, nch)), = r.cache.items("incident")
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     assert nch == 3 and inc.shape == tuple(grid.shape) + (6,)  # coloured point light: three channels
     expect = np.zeros(inc.shape)
     for slot, lt in enumerate(LIGHTS):
@@ -61,7 +61,7 @@ def test_baked_lookup_divides_by_distance_squared():
     r = renderer(grid_data, lights=[light])
     res = render(r, "single_scattering", True)
     (key, (inc, nch)), = r.cache.items("incident")
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     tau = r.cache[("tau", light, grid.key())][..., None]
     lrec = K.lights_of((np.zeros(1, np.int64), np.array([light.position], float), np.array([light.intensity], float)),
                        pa.inputs.phase.as_phase(0.0), (0.25 * res.metadata["step"]) ** 2)
@@ -144,7 +144,7 @@ def test_diffusion_folded_into_the_bake_equals_its_per_sample_lookup(monkeypatch
     from pv_ambient.stages.propagation import LightGrid
 
     r = renderer(physical_grid(sigma=1.5, albedo=albedo), lights)  # optically thin: light grid = data grid
-    assert r.light_grid().on_samples(r.optics.field.shape)
+    assert r.stages.light_grid().on_samples(r.optics.field.shape)
     folded = render(r, "diffusion", True).radiance.astype(np.float64)
     monkeypatch.setattr(LightGrid, "on_samples", lambda self, shape: False)
     separate = render(renderer(physical_grid(sigma=1.5, albedo=albedo), lights), "diffusion", True)

@@ -603,9 +603,9 @@ def test_camera_source_packed_and_at():
 
 def _solve_for_light(r, light, g, **options):
     """``solve_for_light`` with the arrays and records a Renderer gives it (as ``Renderer.diffusion``)."""
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     lights = light if isinstance(light, list) else [light]
-    tau = [r.optical_depth(lt, grid) for lt in lights]
+    tau = [r.stages.optical_depth(lt, grid) for lt in lights]
     medium = dm.DiffusionMedium.from_arrays(r.optics.sigma_grid(), r.optics.albedo_grid())
     return dm.solve_for_light(light, g, medium=medium, geometry=r.geometry, tau=tau if isinstance(light, list) else tau[0],
                               light_grid=grid, **options)

@@ -99,9 +99,9 @@ def test_flux_limited_converges_with_a_light_inside():
 
     r, cam, g, options = scaled_scene("outside", 1.0)
     inside = r.lights[0]
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     args = dict(medium=dm.DiffusionMedium.from_arrays(r.optics.sigma_grid(), r.optics.albedo_grid()),
-                geometry=r.geometry, tau=r.optical_depth(inside, grid), light_grid=grid)
+                geometry=r.geometry, tau=r.stages.optical_depth(inside, grid), light_grid=grid)
     with pytest.warns(UserWarning, match="did not converge"):
         dm.solve_for_light(inside, 0.6, **args, flux_limited=True, max_outer=10)
     with warnings.catch_warnings():

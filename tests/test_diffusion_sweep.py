@@ -286,9 +286,9 @@ def test_hat_source_of_a_slab_under_a_directional_light():
     g["emission"] = np.zeros((g.n_points, 3), np.float32)
     light = DirectionalLight((0.0, 0.0, -1.0), irradiance=2.0)
     r = pa.Renderer(g, transfer_function=pa.TransferFunction.physical(), lights=[light])
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     med = hat_medium(r.optics, r.geometry)
-    q, w = hat_source(light, r.geometry, r.optical_depth(light, grid), grid, r.optics, med)
+    q, w = hat_source(light, r.geometry, r.stages.optical_depth(light, grid), grid, r.optics, med)
     z = np.arange(n) * h
     base = a * sig * 2.0 * np.exp(-sig * (1.0 - z))
     sh = sig * h
@@ -305,9 +305,9 @@ def test_sweeps_refuse_a_mean_cosine_per_node():
     from pv_ambient import datasets
 
     r = pa.Renderer(datasets.cloud(n=8), transfer_function=pa.TransferFunction(**datasets.suggested_style("cloud")))
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     light = pa.PointLight((0.1, 0.2, 0.3), 2.0)
     medium = dm.hat_medium(r.optics, r.geometry)
     with pytest.raises(ValueError, match="one phase function"):
         dm.solve_for_light(light, np.full(medium.shape, 0.3), medium=medium, geometry=r.geometry,
-                           tau=r.optical_depth(light, grid), light_grid=grid, sweep_orders=2)
+                           tau=r.stages.optical_depth(light, grid), light_grid=grid, sweep_orders=2)

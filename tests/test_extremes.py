@@ -463,12 +463,12 @@ def test_light_on_a_grid_point_does_not_depend_on_rounding():
     side; the light volume must not depend on which (it did: the sweeps started one layer
     earlier or later, and the image moved by 1e−6 between scales)."""
     r, _ = make_scene(1.0, 1.0, 1.0, "inside", "cube")
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     node = np.array([3.0, 5.0, 4.0])  # data index of a sample, also a light-grid node
     taus = []
     for eps in (0.0, 1e-12, -1e-12):
         light = PointLight(tuple(r.geometry.to_world(node + eps)), intensity=1.0)
-        taus.append(r.optical_depth(light, grid))
+        taus.append(r.stages.optical_depth(light, grid))
     assert taus[0].max() > 1.0
     np.testing.assert_array_equal(taus[1], taus[0])
     np.testing.assert_array_equal(taus[2], taus[0])
@@ -482,8 +482,8 @@ def test_light_volumes_are_scale_invariant(light_resolution, s):
     marches of exactly J layers); before ``_kernels.lightvol.TIE`` they differed by up to 2e−2."""
     r1, *_ = scaled_scene("outside", 1.0)
     r2, *_ = scaled_scene("outside", s)
-    g1, g2 = r1.light_grid(light_resolution), r2.light_grid(light_resolution)
+    g1, g2 = r1.stages.light_grid(light_resolution), r2.stages.light_grid(light_resolution)
     for l1, l2 in zip(r1.lights, r2.lights):
-        t1, t2 = r1.optical_depth(l1, g1), r2.optical_depth(l2, g2)
+        t1, t2 = r1.stages.optical_depth(l1, g1), r2.stages.optical_depth(l2, g2)
         assert t1.max() > 1.0
         np.testing.assert_allclose(t2, t1, rtol=1e-6, atol=1e-6)

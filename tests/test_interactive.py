@@ -13,7 +13,7 @@ import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
 from pv_ambient.pyvista.plane import texture_image  # noqa: E402
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
-from pv_ambient.rendering.renderer import refined_picture  # noqa: E402
+from pv_ambient.stages.refine import refined_picture  # noqa: E402
 
 SIZE = (63, 47)  # odd sizes: the reduced size rounds up
 CAMERA = pa.Camera((2.5, -3.5, 1.5), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=30.0)
@@ -126,8 +126,8 @@ def test_a_camera_move_recomputes_nothing_view_independent(scene, monkeypatch):
     copied the light volumes side by side (``np.stack``): view-independent passes over volume-sized
     arrays. A camera move must find them cached — the same arrays, no pass over the scattering
     nodes — and a relight must still replace them (the image equals a fresh renderer's)."""
-    from pv_ambient.rendering import renderer as R
-    from pv_ambient.rendering.stages import SceneStages
+    from pv_ambient import backend as R
+    from pv_ambient.rendering.scene_stages import SceneStages
 
     grid, tf, lights = scene
     two = [lights[0], pa.PointLight((-1.0, 1.0, 0.5), intensity=2.0)]
@@ -147,13 +147,13 @@ def test_a_camera_move_recomputes_nothing_view_independent(scene, monkeypatch):
             raise AssertionError("a camera move went over the scattering nodes again")
 
         with monkeypatch.context() as m:
-            m.setattr(SceneStages, "_scattering_nodes", forbidden)
+            m.setattr(SceneStages, "scattering_nodes", forbidden)
             cam = pa.Camera((2.0, -3.8, 1.4), CAMERA.focal_point, CAMERA.view_up, view_angle=30.0)
             moved = r.render(camera=cam, window_size=(16, 12), model=model)
         tau0, tau1 = records[-2][5].tau, records[-1][5].tau
         assert tau0 is tau1 and tau1.shape[-1] == len(lts)  # the same array, one component per light
         if len(lts) == 1:
-            assert np.shares_memory(tau1, r.optical_depth(lts[0], r.light_grid()))  # a view: no copy
+            assert np.shares_memory(tau1, r.stages.optical_depth(lts[0], r.stages.light_grid()))  # a view: no copy
         relit = lts[:-1] + [pa.PointLight((0.5, 0.5, 1.5), intensity=3.0)]
         r.set_lights(relit)
         got = r.render(camera=cam, window_size=(16, 12), model=model)
@@ -237,7 +237,7 @@ def test_progressive_denoise_takes_even_and_odd_passes_as_its_halves(scene, monk
     are the held-out halves — after three passes of 2 samples (seeds 0, 1, 2) the picture is
     :func:`progressive_picture` of passes 0 and 2 pooled against pass 1 (a stand-in denoiser: OIDN
     is an optional extra)."""
-    from pv_ambient.rendering.renderer import progressive_picture
+    from pv_ambient.stages.refine import progressive_picture
     from pv_ambient.stages import denoise
     from pv_ambient.stages.reference import Accumulator
 
@@ -245,11 +245,11 @@ def test_progressive_denoise_takes_even_and_odd_passes_as_its_halves(scene, monk
         from scipy.ndimage import uniform_filter
         return uniform_filter(np.asarray(radiance, np.float64), size=(3, 3, 1))
 
-    from pv_ambient.rendering import renderer
+    from pv_ambient.stages import refine
 
     monkeypatch.setattr(denoise, "available", lambda: True)
     monkeypatch.setattr(denoise, "denoise_radiance", blur)
-    monkeypatch.setattr(renderer, "HELD_OUT_MIN_SAMPLES", 2)  # a choice from these few samples (default 16)
+    monkeypatch.setattr(refine, "HELD_OUT_MIN_SAMPLES", 2)  # a choice from these few samples (default 16)
     grid, tf, lights = scene
     pl = _plotter()
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="progressive", interactive=True,

@@ -121,7 +121,7 @@ def test_fewer_than_the_minimum_samples_keep_only_the_exact_corrections():
     """Below ``REFINE_MIN_SAMPLES`` samples per pixel the picture keeps no measured detail, however
     far it stands out of its noise: only the corrections known exactly (zero variance there and
     around); from the minimum on the same correction is kept in full."""
-    from pv_ambient.rendering.renderer import REFINE_MIN_SAMPLES, refined_picture
+    from pv_ambient.stages.refine import REFINE_MIN_SAMPLES, refined_picture
 
     base = np.zeros((16, 16, 3))
     estimate = base + 0.5  # a correction 50 standard errors above its noise
@@ -142,7 +142,7 @@ def test_default_picture_keeps_the_measurable_correction(scene):
     (same samples): between the two per pixel where a detail is dropped, equal to the unbiased
     picture's mean wherever the whole image's correction stands out of its noise (kept together per
     block, docs/progressive.rst), and within t = √(2 ln n) of its standard errors otherwise."""
-    from pv_ambient.rendering.renderer import refined_picture
+    from pv_ambient.stages.refine import refined_picture
     from pv_ambient.stages.refine import universal_threshold
 
     r, g = scene()
@@ -177,17 +177,18 @@ def test_control_march_once_per_view_and_clamped_only_near_a_light(monkeypatch):
     equiangular radius only when a light is within that radius of the box: for a light farther
     away the clamp changes nothing, and the picture equals the one with the clamp forced — bit
     for bit — while for a light inside the medium the clamp changes the control's picture."""
-    import pv_ambient.rendering.renderer as rmod
+    import pv_ambient.backend as bmod
+    import pv_ambient.rendering.progressive as rmod
     from pv_ambient.inputs.grid import GridGeometry
 
     marches = []
-    real = rmod.run_raycast
+    real = bmod.run_raycast
 
     def counting(*args, **kw):
         marches.append(kw.get("name"))
         return real(*args, **kw)
 
-    monkeypatch.setattr(rmod, "run_raycast", counting)
+    monkeypatch.setattr(bmod, "run_raycast", counting)
     tf = {"kind": "colormap", "cmap": "bone", "clim": [0.0, 1.0], "opacity": "linear", "albedo": 0.9,
           "opacity_unit_distance": 0.15}
     kw = dict(window_size=SIZE, model="progressive", samples_per_pixel=4, seed=3, unbiased=True)
@@ -275,9 +276,9 @@ def test_denoise_chooses_an_oracle_and_keeps_the_unbiased_mean(monkeypatch):
     more than 2 standard errors; the
     picture is then that image rescaled to the unbiased picture's mean per channel (equal to
     1e-5: the mean stays the samples' unbiased one)."""
-    from pv_ambient.rendering import renderer
+    from pv_ambient.stages import refine
 
-    monkeypatch.setattr(renderer, "HELD_OUT_MIN_SAMPLES", 4)  # the choice at 4 samples per half (default 16)
+    monkeypatch.setattr(refine, "HELD_OUT_MIN_SAMPLES", 4)  # the choice at 4 samples per half (default 16)
     r, g = _cloud()
     opts = dict(window_size=DENOISE_SIZE, model="progressive", base_model="single_scattering", phase=g)
     truth = r.render(samples_per_pixel=4096, seed=11, unbiased=True, **opts).radiance

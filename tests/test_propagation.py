@@ -100,9 +100,9 @@ def test_vacuum_gives_unit_transmittance_and_inverse_square():
     vol = Volume(np.zeros((n, n, n), np.float32), spacing=(0.25,) * 3)
     tf = TransferFunction.from_table([0.0, 1.0], sigma_t=[0.0, 0.0])
     r = pa.Renderer(vol, transfer_function=tf, lights=[PointLight((1, 1, 5), 2.0), DirectionalLight((0, 1, 0))])
-    grid = r.light_grid()
+    grid = r.stages.light_grid()
     for lt in r.lights:
-        assert np.all(r.optical_depth(lt, grid) == 0.0)
+        assert np.all(r.stages.optical_depth(lt, grid) == 0.0)
 
 
 def test_single_scattering_point_light_falloff_is_exact():

@@ -67,7 +67,7 @@ def index_segment(r, origin, direction):
 
 
 def tracker_args(r, p, q, t0, t1, block):
-    return (*p, *q, t0, t1, medium_of(r.optics, r.majorant(block), block))
+    return (*p, *q, t0, t1, medium_of(r.optics, r.stages.majorant(block), block))
 
 
 def transmittance_samples(r, origin, direction, n, seed, block=4, rr_below=0.0):
@@ -162,7 +162,7 @@ def test_ratio_tracking_homogeneous_box(association):
         g.cell_data["sigma_t"] = np.full(g.n_cells, sigma, np.float32)
         g.cell_data["albedo"] = np.zeros(g.n_cells, np.float32)
         r = pa.Renderer(g, transfer_function=pa.TransferFunction.physical(), preference="cell")
-        assert r.geometry.box_lo[0] == -0.5 and r.majorant(4).shape == (4, 4, 4)
+        assert r.geometry.box_lo[0] == -0.5 and r.stages.majorant(4).shape == (4, 4, 4)
     for origin, direction, rr in [((-0.5, 0.3, 0.2), (1.0, 0.35, 0.5), 0.0), ((0.8, 2.4, -0.3), (0.1, -1.0, 0.4), 0.3)]:
         est, t0, t1 = transmittance_samples(r, origin, direction, 40000, seed=1, rr_below=rr)
         exact = math.exp(-sigma * (t1 - t0))
@@ -179,7 +179,7 @@ def test_ratio_tracking_heterogeneous_ramp():
         exact = math.exp(-float(ramp_tau(0.0, RAMP_DIR[2], t1 - t0)))
         z = (est.mean() - exact) / (est.std(ddof=1) / math.sqrt(est.size))
         assert 0.05 < exact < 0.8 and abs(z) < 3, (exact, est.mean(), z)
-    assert (r.majorant(4)[:, :, :2] == 0).all() and (r.majorant(4)[:, :, 2:] > 0).all()
+    assert (r.stages.majorant(4)[:, :, :2] == 0).all() and (r.stages.majorant(4)[:, :, 2:] > 0).all()
 
 
 def test_free_flight_ks_homogeneous():
@@ -866,7 +866,7 @@ def _uniform_box(sigma):
 
     r = renderer(np.full((5, 5, 5), sigma), (0.5, 0.5, 0.5), (-1.0, -1.0, -1.0))
     cam = Camera((0.0, -4.0, 0.0), (0.0, 0.0, 0.0), (0, 0, 1))
-    return K.view_of(cam, (4, 4), r.geometry), medium_of(r.optics, r.majorant(4), 4)
+    return K.view_of(cam, (4, 4), r.geometry), medium_of(r.optics, r.stages.majorant(4), 4)
 
 
 def test_directions_about_the_light_reproduce_the_phase_function():

@@ -7,11 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..inputs.validation import check_choice, check_real
-from ..rendering.result import TONEMAPS, srgb_encode, tonemap_values
-
-
-#: Keywords of :meth:`RenderResult.to_uint8` that ``display=`` may hold.
-DISPLAY_KEYS = ("exposure", "tonemap", "srgb")
+from ..rendering.result import DISPLAY_KEYS, TONEMAPS, srgb_encode, tonemap_values  # noqa: F401
 
 
 def display_to_linear(values, *, exposure=0.0, tonemap="clip", srgb=False):

@@ -15,14 +15,12 @@ import pyvista as pv
 
 from ..inputs.camera import Camera
 from ..inputs.validation import check_int, check_real, check_window_size
-from ..rendering.presets import DEFAULT_SPP
-from ..rendering.renderer import Renderer, progressive_picture
+from ..rendering.renderer import Renderer
 from ..rendering.request import warn_unused_lights
-from ..rendering.result import RenderResult
-from ..stages.reference import Accumulator
-from .display import DISPLAY_KEYS
+from ..rendering.result import DISPLAY_KEYS, RenderResult, unknown_display_keys
 from .geometry import GeometryPass, composite_over_geometry, ray_distance_from_depth
 from .plane import add_result_plane, write_texture
+from .refinement import Refinement
 
 
 #: A render window asking for at least this many frames per second is drawing an interactive frame
@@ -136,8 +134,8 @@ class AmbientVolume:
         self._key = None
         self._pass = None
         self._timer = None
-        self._accumulator = None  # path tracing in interactive mode: the samples so far
-        self._refine_view = None  # (camera, window size) they are taken with
+        # path tracing in interactive mode: the samples so far, and the view they are taken with
+        self._refinement = Refinement(model, self.options, interactive_samples, self._render_volume)
 
     def __iter__(self):
         yield self.actor
@@ -262,8 +260,7 @@ class AmbientVolume:
             opts["step"] = step
             # a long step marched from the same place on every ray bands thin layers (wood grain)
             # and shifts the picture's mean; jittered starts turn that into fine noise
-            # (benchmarks/drag_frame.py: at 4 resting steps the CT phantom's diffusion drag frames lose a
-            # third of their error)
+            # (docs/display.rst, "Interactive mode")
             opts.setdefault("jitter", True)
         if self.moving:  # a drag frame takes a fraction of a second: no delayed progress bar (its thread)
             opts.setdefault("progress_bar", False)
@@ -295,7 +292,7 @@ class AmbientVolume:
             shown.metadata.update(occluders=len(occluders), time_geometry=t_geometry)
         elif self.model == "progressive" and self.interactive and self.moving:
             # the camera moves: the base model's noise-free picture (no samples); they follow at rest
-            self._accumulator = None
+            self._refinement.reset()
             shown = volume = self._render_volume(cam, size, samples_per_pixel=0)
         elif self.model in MONTE_CARLO and self.interactive:
             shown = volume = self._first_pass(cam, size)
@@ -324,36 +321,8 @@ class AmbientVolume:
 
     # -- path tracing: progressive refinement ----------------------------------------------------------
     def _first_pass(self, cam, size):
-        self._accumulator = None
-        return self._accumulate(cam, size)
-
-    def _accumulate(self, cam, size):
-        acc = self._accumulator
-        k = 0 if acc is None else acc.passes
-        done = 0 if acc is None else acc.samples
-        total = int(self.options.get("samples_per_pixel", DEFAULT_SPP))
-        n = max(2, min(self.interactive_samples, total - done))
-        # progressive: averaged first (unbiased), thresholded or denoised after
-        extra = {"unbiased": True, "denoise": False} if self.model == "progressive" else {}
-        res = self._render_volume(cam, size, samples_per_pixel=n, seed=int(self.options.get("seed", 0)) + k,
-                                  target_error=None, **extra)
-        if acc is None:
-            acc = self._accumulator = Accumulator()
-            self._halves = (Accumulator(), Accumulator())  # even and odd passes: denoise's held-out halves
-            self._refine_view = (cam, size)
-        acc.add(res.radiance, res.std_error, res.alpha, samples=n)
-        self._halves[k % 2].add(res.radiance, res.std_error, res.alpha, samples=n)
-        mean, se, alpha = acc.mean, acc.std_error, acc.alpha
-        meta = dict(res.metadata, spp=acc.samples, passes=acc.passes, relative_error=acc.relative_error)
-        if self.model == "progressive" and not self.options.get("unbiased", False):
-            # the mean of all passes so far, its correction kept where it stands out — or, with
-            # denoise, denoised where the held-out halves say it is closer (docs/progressive.rst)
-            base = self._render_volume(cam, size, samples_per_pixel=0).radiance  # the view's cached base
-            halves = [(h.mean, h.std_error, h.samples) for h in self._halves if h.samples > 0]
-            mean, pm = progressive_picture(base, halves, denoise=bool(self.options.get("denoise", False)))
-            meta.update(pm, denoised=pm["residual"] == "denoised")
-        return RenderResult(radiance=mean.astype(np.float32), alpha=alpha.astype(np.float32), camera=cam,
-                            metadata=meta, std_error=se.astype(np.float32))
+        self._refinement.reset()
+        return self._refinement.add_pass(cam, size)
 
     def refine(self, render=True):
         """Path tracing in interactive mode: add ``interactive_samples`` samples per pixel (the
@@ -363,24 +332,22 @@ class AmbientVolume:
         (where the one picture already has all its samples). ``render`` re-renders the plotter
         (only when samples were added). The interactive timer calls it; call it yourself where
         there is no event loop."""
-        acc = self._accumulator
-        if self.model not in MONTE_CARLO or acc is None:
+        ref = self._refinement
+        if self.model not in MONTE_CARLO or ref.passes is None:
             if self.model == "progressive" and self.interactive and self.result is not None and not self.moving:
                 self.update(force=True)  # the camera came to rest after a drag: the first samples
                 if render:
                     self.plotter.render()
                 return True
             return False
-        target = self.options.get("target_error")
-        if acc.samples >= int(self.options.get("samples_per_pixel", DEFAULT_SPP)):
+        if ref.done(self.result):
             return False
-        if target is not None and acc.passes > 1 and self.result.metadata.get("relative_error", np.inf) <= target:
-            return False
-        res = self._accumulate(*self._refine_view)
+        res = ref.add_pass(*ref.view)
         self.volume_result = self.result = res
+        size = ref.view[1]
         if not self._own_background:
-            self.result = composite_over_geometry(res, self._background_image(self._refine_view[1]),
-                                                  np.ones(self._refine_view[1][::-1]), display=self.display)
+            self.result = composite_over_geometry(res, self._background_image(size), np.ones(size[::-1]),
+                                                  display=self.display)
         self._show(self.result)
         self.renders += 1
         if render:
@@ -422,7 +389,7 @@ class AmbientVolume:
         if self.observer is None:
             self.interactive = True
             self.observer = self.plotter.ren_win.AddObserver("StartEvent", self._on_start)
-            if self.model in MONTE_CARLO and self._accumulator is None:
+            if self.model in MONTE_CARLO and self._refinement.passes is None:
                 self.update(force=True)
             self._ensure_timer()
         return self.observer
@@ -537,8 +504,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         of two ≥ 1; 1 keeps the resting step). Ignored by ``path_traced``. A drag frame at a longer
         step is an approximation (the volume sampled more coarsely, its fine detail aliased — as
         noise, its ray starts jittered): a preview while the camera moves, never the picture it
-        rests on. 16 lets a 256³ volume reach 10 frames per second on two cores
-        (``benchmarks/speed.py --drag``).
+        rests on (docs/display.rst).
     **render_options
         As :meth:`pv_ambient.Renderer.render`. Without ``background`` the volume is composited
         over the plotter's own background (its colour, or its gradient), as VTK's ``add_volume``
@@ -593,9 +559,9 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
     elif not isinstance(renderer, Renderer):
         raise TypeError(f"renderer must be a pv_ambient.Renderer, got {type(renderer).__name__}")
     display = dict(display or {})
-    unknown = set(display) - set(DISPLAY_KEYS)
+    unknown = unknown_display_keys(display)
     if unknown:
-        raise TypeError(f"display has unknown keys {sorted(unknown)}; allowed: {list(DISPLAY_KEYS)}")
+        raise TypeError(f"display has unknown keys {unknown}; allowed: {list(DISPLAY_KEYS)}")
     interactive_samples = check_int(interactive_samples, "interactive_samples", lo=2)
     refine_interval = check_int(refine_interval, "refine_interval", lo=1)
     interactive_resolution = check_real(interactive_resolution, "interactive_resolution", lo=0.5, hi=1.0)

@@ -2,7 +2,7 @@
 
 Everything that names a model — the renderer, the JSON scene format, the CLI, the PyVista face —
 reads it from here (docs/models.rst describes each model; the rule behind ``auto`` is
-:func:`pv_ambient.rendering.renderer.choose_model`).
+:meth:`pv_ambient.Renderer.choose_model`).
 """
 
 from __future__ import annotations
@@ -53,6 +53,8 @@ MODEL_TABLE = (
     ModelSpec("auto", None, lit=True, ball=True, radius_voxels=8.0, title="auto"),
 )
 MODEL_SPECS = {m.name: m for m in MODEL_TABLE}
+#: The ray-cast kernel's model id of each camera-pass model.
+MODEL_IDS = {m.name: m.kernel_id for m in MODEL_TABLE if m.kernel_id is not None}
 #: Every name ``model=`` accepts.
 ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
 
@@ -120,3 +122,19 @@ BUDGET_MAX_SPP = 4096
 def step_for(quality, spacing_min) -> float:
     """The ray step (world units) of a quality preset for a grid whose smallest spacing is ``spacing_min``."""
     return QUALITY_STEP[quality] * float(spacing_min)
+
+
+def light_resolution_for(optics, geometry, quality=None, light_resolution=None) -> float:
+    """The light grid's nodes per data spacing — the one place that decides it: ``light_resolution``
+    when given; else the preset's (``QUALITY_PRESETS``), where a preset of None and no preset at all
+    mean the default of docs/ambient_scattering.rst §3 (2 where max σt·h > 0.3, else 1:
+    trilinear interpolation of a coarse transmittance is biased upward), and ``"accurate"`` never
+    goes below that default."""
+    from ..stages.propagation import default_factor
+
+    if light_resolution is not None:
+        return light_resolution
+    preset = None if quality is None else QUALITY_PRESETS[quality]["light_resolution"]
+    if preset is None:
+        return default_factor(optics, geometry)
+    return max(preset, default_factor(optics, geometry) if quality == "accurate" else 0.0)

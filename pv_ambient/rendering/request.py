@@ -254,15 +254,9 @@ def compile_notice(model):
     if _NOTICED:
         return
     _NOTICED.append(True)
-    if model == "path_traced":
-        from .._kernels.pathtrace import pathtrace_image as fn
-    else:
-        from .._kernels.raycast import raycast_image as fn
-    try:
-        cached = bool(fn.signatures) or os.path.exists(fn._cache._cache_file._index_path)
-    except AttributeError:  # another Numba: say nothing rather than something wrong
-        cached = True
-    if not cached:
+    from ..backend import kernel_compiled
+
+    if not kernel_compiled("path_trace" if model == "path_traced" else "raycast"):
         print("pv_ambient: compiling the rendering kernels for this machine (first use only, about 10-40 s; "
               "then cached)", file=sys.stderr, flush=True)
 
@@ -286,3 +280,97 @@ def check_thickness(geometry, dimensions=None):
                      "face-on but not edge-on). Give it one: e.g. an ImageData of dimensions "
                      f"{example} holding the layer twice, the spacing along {names} its thickness — or show a 2-D "
                      "image with Plotter.add_mesh")
+
+
+def resolve_radius(radius, model, spacing) -> float:
+    """The ambient radius in world units: the model's default (``radius_voxels`` of the model
+    table, in units of the largest spacing) when None, ``"N voxels"`` in those units, else a
+    number >= 0."""
+    from ..inputs.validation import check_real
+    from .presets import MODEL_SPECS
+
+    h = float(np.max(spacing))
+    if radius is None:
+        return MODEL_SPECS[model].radius_voxels * h
+    if isinstance(radius, str):
+        parts = radius.split()
+        if len(parts) == 2 and parts[1] in ("voxel", "voxels"):
+            try:
+                return check_real(float(parts[0]), "radius", lo=0.0) * h
+            except ValueError:
+                pass
+        raise ValueError(f"radius must be a number (world units) or 'N voxels', got {radius!r}")
+    return check_real(radius, "radius", lo=0.0)
+
+
+def check_model_options(model, options) -> dict:
+    """Check the model options (``MODEL_OPTIONS``) of a render of ``model``: unknown names are a
+    TypeError, flags must be bools, and the optional packages an option needs are checked here,
+    before any work (``denoise=True`` needs ``pyoidn``: an ImportError that names the extra)."""
+    from ..inputs.validation import check_bool, check_choice, check_int
+    from .presets import MODEL_OPTIONS, PROGRESSIVE_BASES
+
+    unknown = set(options) - MODEL_OPTIONS
+    if unknown:
+        raise TypeError(f"render() got unknown options {sorted(unknown)}; model options are {sorted(MODEL_OPTIONS)}")
+    for flag in ("denoise", "unbiased"):  # a bool, not 0/1 or a string that happens to compare equal
+        if flag in options:
+            options[flag] = check_bool(options[flag], flag)
+    if "sweep_orders" in options:
+        check_int(options["sweep_orders"], "sweep_orders", lo=0)
+    if "base_model" in options:
+        check_choice(options["base_model"], "base_model", PROGRESSIVE_BASES)
+    if model == "progressive" and options.get("unbiased") and options.get("denoise"):
+        raise ValueError("unbiased=True returns the unbiased picture as it is; denoise=True chooses between it "
+                         "denoised and thresholded (docs/progressive.rst): give one of them")
+    if options.get("denoise") and model in ("path_traced", "progressive", "auto"):
+        from ..stages.denoise import require
+
+        require()  # the ImportError that names the extra
+    return options
+
+
+def build_request(renderer, *, camera, window_size, model, quality, step, jitter, seed, background, early_termination,
+                  phase, progress_bar, radius, light_resolution, ambient_radiance, propagation, table_quality,
+                  ray_end, backend, model_options) -> RenderRequest:
+    """Check :meth:`pv_ambient.Renderer.render`'s arguments once (for ``renderer``'s scene) into a
+    frozen :class:`RenderRequest`."""
+    from ..backend import check_backend, resolve_backend
+    from ..inputs.camera import as_camera
+    from ..inputs.phase import as_phase
+    from ..inputs.validation import check_choice, check_int, check_real, check_rgb
+    from .presets import ALL_MODELS, PROPAGATION_MODES, QUALITIES, QUALITY_PRESETS, light_resolution_for, step_for
+
+    cam, size = as_camera(camera, window_size=window_size, bounds=renderer.bounds)
+    check_choice(model, "model", ALL_MODELS)
+    check_image_memory(size, model)
+    given = given_options(radius=radius, propagation=propagation, ambient_radiance=ambient_radiance)
+    check_choice(quality, "quality", QUALITIES)
+    check_choice(propagation, "propagation", PROPAGATION_MODES)
+    preset = QUALITY_PRESETS[quality]
+    table_quality = check_choice(preset["table_quality"] if table_quality is None else table_quality,
+                                 "table_quality", QUALITIES)
+    light_resolution = light_resolution_for(renderer.optics, renderer.geometry, quality, light_resolution)
+    model_options = dict(model_options)
+    explicit = frozenset(model_options) | given
+    model_options.setdefault("samples_per_pixel", preset["samples_per_pixel"])
+    budget = model_options.pop("time_budget", None)
+    check_model_options(model, model_options)
+    step = (step_for(quality, np.min(renderer.geometry.spacing)) if step is None
+            else check_real(step, "step", lo=0.0, lo_open=True))
+    asked = renderer.backend if backend is None else check_backend(backend)
+    if budget is not None:
+        budget = check_real(budget, "time_budget", lo=0.0, lo_open=True)
+        if model != "auto":
+            raise ValueError(f"time_budget chooses the model: use it with model='auto', not {model!r}")
+    if model in ("path_traced", "progressive") and ray_end is not None:
+        raise ValueError(f"ray_end (opaque geometry) is supported by the ray-cast models, not by {model}")
+    return RenderRequest(
+        camera=cam, window_size=size, model=model, quality=quality, step=step, jitter=bool(jitter),
+        seed=check_int(seed, "seed", lo=0), background=check_rgb(background, "background"),
+        early_termination=check_real(early_termination, "early_termination", lo=0.0, hi=1.0),
+        ambient_radiance=check_real(ambient_radiance, "ambient_radiance", lo=0.0), phase=as_phase(phase),
+        radius=resolve_radius(radius, model, renderer.geometry.spacing), t_end=check_ray_end(ray_end, size),
+        light_resolution=light_resolution, table_quality=table_quality, propagation=propagation,
+        bake_lights=bool(preset["bake_lights"]), asked=asked, progress_bar=None if progress_bar is None else bool(progress_bar),
+        backend=resolve_backend(asked), time_budget=budget, options=model_options, explicit=explicit)

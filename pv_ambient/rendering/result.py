@@ -11,12 +11,24 @@ import numpy as np
 from ..inputs.validation import check_choice, check_real
 
 TONEMAPS = ("clip", "reinhard", "aces")
+#: Keywords of :meth:`RenderResult.to_uint8` that a ``display`` mapping may hold (a plotter's
+#: ``display=``, a scene file's ``"display"``, ``render_series(display=...)``).
+DISPLAY_KEYS = ("exposure", "tonemap", "srgb")
 #: ``exposure="auto"``: the AUTO_PERCENTILE-th percentile of the luminance over the pixels the
 #: volume covers (alpha > AUTO_ALPHA) is mapped to AUTO_WHITE (below white, so highlights keep
 #: their colour): docs/display.rst.
 AUTO_PERCENTILE, AUTO_WHITE, AUTO_ALPHA = 99.0, 0.8, 0.05
 #: Rec. 709 luminance weights of linear RGB.
 LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+
+def unknown_display_keys(display) -> list:
+    """The keys of ``display`` that are not :data:`DISPLAY_KEYS`, sorted (what callers report).
+
+    >>> unknown_display_keys({"exposure": 1, "gamma": 2.2})
+    ['gamma']
+    """
+    return sorted(set(display) - set(DISPLAY_KEYS))
 
 
 def auto_exposure(radiance, alpha=None) -> float:

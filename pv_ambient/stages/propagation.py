@@ -204,3 +204,15 @@ def tube_extinction(ball, grid: LightGrid, radius, table) -> np.ndarray:
     D, F_diff, a_nodes, lo_log, dlog = table.lookup_args()
     tube_density(ball, grid.lo, grid.step, float(radius), F_diff, a_nodes, lo_log, dlog, out)
     return out
+
+
+def front_depth(ball_inside, grid: LightGrid, geometry, light, radius, table) -> np.ndarray:
+    """Tube-mode front optical depth from ``light`` per channel at the nodes of ``grid``, float32
+    (m0, m1, m2, 3): :func:`tube_extinction` of the ball grid averaged over the inside part of each
+    ball (:func:`pv_ambient.stages.ball.ball_inside`), integrated along the light's rays by
+    :func:`optical_depth`."""
+    rho = tube_extinction(ball_inside, grid, radius, table)
+    out = np.empty_like(rho)
+    for c in range(3):
+        out[..., c] = optical_depth(np.ascontiguousarray(rho[..., c]), grid, geometry, light)
+    return out

@@ -1,0 +1,179 @@
+"""The camera-pass models — emission–absorption, ambient occlusion, single scattering, ambient
+scattering and diffusion (docs/models.rst): one ray cast per frame over the per-scene stages.
+
+:func:`render_camera_pass` gathers what the model reads from the renderer's
+:class:`~pv_ambient.rendering.scene_stages.SceneStages` (light volumes, the ball grid, the table
+slice, tube fronts, the diffusion field, baked in-scattering), packs the ray-cast kernel's
+records (:mod:`pv_ambient._kernels.records`) and runs it through :mod:`pv_ambient.backend`.
+Everything but the ray cast is cached, so a camera move re-runs only the kernel.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._kernels import records as K
+from .. import backend
+from ..inputs.lights import pack_lights
+from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS
+from .request import stage_bar
+from .result import RenderResult
+from .scene_stages import NO_GRID
+
+
+@dataclass
+class _Inputs:
+    """What a camera-pass model reads besides the camera: the active lights, their light grid,
+    optical depths and fronts, the ball and table, the diffusion field and its solve's information."""
+
+    grid: object = None
+    lights: tuple = ()
+    taus: tuple = ()
+    ball: np.ndarray = field(default_factory=lambda: K.NONE4)
+    table: tuple = (K.NONE3, K.NONE1, 0.0, 1.0)
+    # the tube fronts; None: Beer–Lambert (the τ grids read at the ball's entry point)
+    phi: object = field(default_factory=lambda: K.NONE4)
+    diffusion: np.ndarray = field(default_factory=lambda: K.NONE12)
+    diffusion_info: dict | None = None
+
+
+def _lights(renderer, req, model, inputs):
+    """The lights that matter and their optical depths (computed and cached while the active
+    lights are sorted out)."""
+    stages, progress_bar = renderer.stages, req.progress_bar
+    lit = MODEL_SPECS[model].lit and bool(renderer.lights)
+    with stage_bar(progress_bar if lit else False, f"light volumes ({len(renderer.lights)} lights)") as bar:
+        inputs.lights = stages.active_lights(renderer.lights, inputs.grid, req.backend) if lit else ()
+        inputs.taus = tuple(stages.optical_depth(lt, inputs.grid, req.backend) for lt in inputs.lights)
+        bar.update()
+
+
+def _ambient(renderer, req, model, inputs):
+    """Ambient scattering's table slice and, in tube mode, its fronts."""
+    stages, ph, radius, grid = renderer.stages, req.phase, req.radius, inputs.grid
+    with stage_bar(req.progress_bar if req.progress_bar is not True else False, "preintegrated table"):
+        tab = stages.table(ph, radius, quality=req.table_quality, progress_bar=req.progress_bar is True)
+    D, _, a_nodes, lo_log, dlog = tab.lookup_args()
+    inputs.table = (D, a_nodes, lo_log, dlog)
+    if req.propagation == "tube":
+        fronts = [stages.front_depth(lt, grid, radius, ph, req.table_quality) for lt in inputs.lights]
+        inputs.phi = stages.stacked("front_stack", inputs.lights, grid, fronts,
+                                    extra=(float(radius), stages.table_key(ph, radius, req.table_quality)))
+    else:
+        inputs.phi = None
+
+
+def _diffusion(renderer, req, options, inputs):
+    """The diffusion field of the active lights (one cached solve per light)."""
+    with stage_bar(req.progress_bar, "diffusion solve") as bar:
+        inputs.diffusion, info = renderer.stages.diffusion(
+            inputs.lights, inputs.grid, req.phase, flux_limited=options.get("flux_limited", False),
+            progress_bar=req.progress_bar is True, backend=req.backend, sweep_orders=options.get("sweep_orders", 0))
+        if info is not None:
+            bar.set_postfix_str(f"{info['iterations']} iterations, residual {info['residual']:.2g}")
+        inputs.diffusion_info = info
+        bar.update()
+
+
+def gather_inputs(renderer, req, model, options):
+    """Every per-scene input of ``model`` for request ``req`` (computed or found in the cache)."""
+    inputs = _Inputs(grid=renderer.stages.light_grid(req.light_resolution) if model != "emission_absorption" else None)
+    _lights(renderer, req, model, inputs)
+    if MODEL_SPECS[model].ball:
+        inputs.ball = renderer.stages.ball_grid(req.radius)
+    if model == "ambient_scattering" and inputs.lights:
+        _ambient(renderer, req, model, inputs)
+    if model == "diffusion" and inputs.lights:
+        _diffusion(renderer, req, options, inputs)
+    return inputs
+
+
+def _bake(renderer, req, model, options, inputs, records, d2min):
+    """Bake the lights' in-scattering on the light grid (isotropic phase): the light-grid record
+    that reads it, and the kernel's model id (single scattering's when diffusion's φ/4π joins the
+    bake, which it does exactly where the light-grid nodes are the data samples: trilinear
+    interpolation is linear)."""
+    stages, grid, ph, radius = renderer.stages, inputs.grid, req.phase, req.radius
+    lrec, grec, arec = records
+    tkey = stages.table_key(ph, radius, req.table_quality) if model == "ambient_scattering" else None
+    fold = model == "diffusion" and grid.on_samples(renderer.optics.field.shape)
+    dkey = ((bool(options.get("flux_limited", False)), fold)
+            + ((int(options["sweep_orders"]),) if options.get("sweep_orders", 0) else ())
+            if model == "diffusion" else None)
+    with stage_bar(req.progress_bar, "baked in-scattering") as bar:
+        inc = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
+                              (model, d2min, radius, tkey, req.propagation, ph.canonical(), dkey),
+                              diffusion=inputs.diffusion if fold else None)
+        bar.update()
+    return grec._replace(inc=inc[0], baked=inc[1]), MODEL_IDS["single_scattering" if fold else model]
+
+
+def raycast_records(renderer, req, model, options, inputs):
+    """The ray-cast kernel's arguments (:mod:`pv_ambient._kernels.records`, after the model id)
+    for ``model``, and whether the lights' in-scattering was baked."""
+    stages, ph = renderer.stages, req.phase
+    d2min = (0.25 * req.step) ** 2  # a point light's I/d² clamped at a quarter step
+    # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
+    bake = bool(req.bake_lights and inputs.lights and ph.canonical()[2])
+    tau = stages.stacked("tau_stack", inputs.lights, inputs.grid, inputs.taus) if inputs.taus else K.NONE4
+    lg = inputs.grid if inputs.grid is not None else NO_GRID
+    lrec = K.lights_of(pack_lights(inputs.lights), ph, d2min)
+    grec = K.LightGrid(lg.lo, lg.inv_step, tau, tau if inputs.phi is None else inputs.phi, K.NONE4, 0)
+    D, a_nodes, lo_log, dlog = inputs.table
+    arec = K.Ambient(req.radius, inputs.ball, req.ambient_radiance, D, a_nodes, lo_log, dlog)
+    kernel_model = MODEL_IDS[model]
+    if bake:
+        grec, kernel_model = _bake(renderer, req, model, options, inputs, (lrec, grec, arec), d2min)
+    args = (kernel_model,
+            K.view_of(req.camera, req.window_size, renderer.geometry),
+            K.March(req.step, req.jitter, req.seed, req.early_termination, req.background, req.t_end),
+            K.medium_of(renderer.optics, stages.majorant(), MAJORANT_BLOCK),
+            lrec, grec, arec,
+            K.Diffusion(inputs.diffusion, float(ph.mean_cosine)))
+    return args, bake
+
+
+def render_camera_pass(renderer, req, model, options, records=None) -> RenderResult:
+    """A camera-pass model's picture for checked request ``req``; ``records``: a list to receive
+    the kernel's arguments (the model id and the records after it) when there is a medium to march
+    (the progressive model's control reads them)."""
+    t_start = time.perf_counter()
+    w, h = req.window_size
+    rad = np.zeros((h, w, 3), np.float32)
+    alpha = np.zeros((h, w), np.float32)
+    inputs = gather_inputs(renderer, req, model, options)
+    t_prep = time.perf_counter() - t_start
+    bake, used = False, req.backend
+    if not renderer.geometry.is_empty:
+        args, bake = raycast_records(renderer, req, model, options, inputs)
+        t_prep = time.perf_counter() - t_start
+        if records is not None:
+            records.append(args)
+        inner = req.progress_bar is True  # the kernel's own bar (image tiles)
+        with stage_bar(req.progress_bar if not inner else False, f"ray cast ({model})"):
+            used = backend.run_raycast(args, rad, alpha, backend=req.backend, asked=req.asked,
+                                       device_cache=renderer.stages.device_for(req.backend), progress_bar=inner,
+                                       name=f"ray cast ({model})")
+    else:
+        rad[:] = req.background
+    meta = _metadata(renderer, req, model, options, inputs, bake, used)
+    meta.update(time_prepare=t_prep, time_render=time.perf_counter() - t_start - t_prep)
+    return RenderResult(radiance=rad, alpha=alpha, camera=req.camera, metadata=meta)
+
+
+def _metadata(renderer, req, model, options, inputs, bake, used) -> dict:
+    diffusion = model == "diffusion"
+    return {"model": model, "requested_model": req.model, "quality": req.quality, "step": req.step,
+            "window_size": req.window_size, "jitter": req.jitter, "seed": req.seed, "backend": used,
+            "device_memory": renderer.stages.device_nbytes if used == "cuda" else 0,
+            "lights": len(inputs.lights), "radius": req.radius, "phase": repr(req.phase),
+            "propagation": req.propagation if model == "ambient_scattering" else None,
+            "baked_lights": bake,
+            "flux_limited": bool(options.get("flux_limited", False)) if diffusion else None,
+            "sweep_orders": int(options.get("sweep_orders", 0)) if diffusion else None,
+            "diffusion_solver": inputs.diffusion_info if diffusion else None,
+            "light_grid": None if inputs.grid is None else inputs.grid.shape,
+            "early_termination": req.early_termination}

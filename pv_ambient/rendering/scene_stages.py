@@ -1,0 +1,298 @@
+"""The per-scene stages a :class:`~pv_ambient.Renderer` keeps: the majorant grid, light grids,
+optical depths, the ball means σ̄, the preintegrated table slices, tube fronts, baked
+in-scattering and diffusion solutions.
+
+:class:`SceneStages` is a component the renderer owns. It decides only which stage runs when:
+each entry is computed by an array-in/array-out function of :mod:`pv_ambient.stages` on the
+scene's arrays and kept in a :class:`~pv_ambient.rendering.cache.SceneCache` under a key of its
+inputs, so a camera move computes none of them and a relight only the moved light's
+(docs/architecture.rst).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .._kernels import records as K
+from .presets import MAJORANT_BLOCK, TAU_OPAQUE, light_resolution_for
+from .cache import SceneCache
+
+
+class _NoGrid:
+    lo = np.zeros(3)
+    inv_step = np.zeros(3)
+
+
+#: Stands for the light grid of a model that has none (its kernel reads no light volume).
+NO_GRID = _NoGrid()
+
+
+class _DeviceSlot:
+    """Holds the CUDA backend's :class:`pv_ambient.backend.DeviceCache` once created, shared by
+    the stages of renderers that differ only in colour (:meth:`SceneStages.with_optics`)."""
+
+    def __init__(self):
+        self.cache = None
+
+
+class SceneStages:
+    """The cached stages of one scene: ``optics`` (classified medium) on ``geometry``.
+
+    Parameters
+    ----------
+    optics : pv_ambient.inputs.transfer.Optics
+    geometry : pv_ambient.inputs.grid.GridGeometry
+    cache : SceneCache, optional
+        Where the entries live (a new one when None).
+
+    Attributes
+    ----------
+    timings : dict
+        Seconds of the last computation of each stage (``"light volume …"``, ``"table"``, …).
+    """
+
+    def __init__(self, optics, geometry, cache=None):
+        self.optics = optics
+        self.geometry = geometry
+        self.cache = SceneCache() if cache is None else cache
+        self.timings = {}
+        self._device = _DeviceSlot()
+
+    def __getstate__(self):
+        # the GPU-resident copies stay behind: stages sent to another process (a Dask worker)
+        # upload what they need there
+        state = self.__dict__.copy()
+        state["_device"] = _DeviceSlot()
+        return state
+
+    def with_optics(self, optics) -> "SceneStages":
+        """The stages of other optical properties of the same σt: the σt-only entries (majorant,
+        light grids, optical depths) carried over, the GPU cache shared."""
+        other = SceneStages(optics, self.geometry, self.cache.with_sigma_only())
+        other._device = self._device
+        return other
+
+    @property
+    def device_cache(self):
+        """The :class:`pv_ambient.backend.DeviceCache` of the CUDA backend (created on first use)."""
+        if self._device.cache is None:
+            from ..backend import DeviceCache
+
+            self._device.cache = DeviceCache()
+        return self._device.cache
+
+    @property
+    def device_nbytes(self) -> int:
+        """Bytes the scene holds on the GPU (0 before the CUDA backend has run)."""
+        return 0 if self._device.cache is None else self._device.cache.nbytes
+
+    def device_for(self, backend):
+        """The device cache for ``backend`` ("cuda"), None for the CPU."""
+        return self.device_cache if backend == "cuda" else None
+
+    def _timed(self, name, build):
+        t = time.perf_counter()
+        out = build()
+        self.timings[name] = time.perf_counter() - t
+        return out
+
+    def _replace(self, kind, key, value):
+        """Keep ``value`` under ``key``, dropping the entries of stage ``kind`` that differ from it
+        only in their light set (one per grid and options: a relight replaces it)."""
+        for old in [k for k in self.cache.keys(kind) if k[2:] == key[2:]]:
+            del self.cache[old]
+        self.cache[key] = value
+        return value
+
+    # -- the medium --------------------------------------------------------------------------
+    def majorant(self, block=MAJORANT_BLOCK):
+        """Upper bound of σt over each block of (``block``)³ samples (cached)."""
+        from ..stages.medium import majorant_grid
+
+        return self.cache.get(("majorant", block), lambda: majorant_grid(self.optics, block))
+
+    def ball_grid(self, radius):
+        """σ̄ and the ball's mean albedo per channel at every data sample, float32 (nx, ny, nz, 4)
+        (:func:`pv_ambient.stages.ball.ball_grid`; cached per radius)."""
+        from ..stages.ball import ball_grid
+
+        return self.cache.get(("ball", float(radius)), lambda: ball_grid(
+            self.optics.sigma_grid(), self.optics.albedo_grid(), self.geometry.spacing, radius))
+
+    def albedo_range(self, radius):
+        """(min, max) of the ball-mean albedo over the medium (cached with the ball grid: every
+        frame keys its table by it)."""
+        from ..stages.ball import albedo_range
+
+        return self.cache.get(("albedo_range", float(radius)), lambda: albedo_range(self.ball_grid(radius)))
+
+    def ball_inside(self, radius):
+        """The ball grid with σ̄ averaged over the part of the ball inside the grid (the tube
+        march's, :func:`pv_ambient.stages.ball.ball_inside`; cached)."""
+        from ..stages.ball import ball_inside
+
+        return self.cache.get(("ball_inside", float(radius)), lambda: ball_inside(
+            self.ball_grid(radius), self.geometry.spacing, radius))
+
+    # -- light grids and per-light volumes ---------------------------------------------------
+    def light_grid(self, light_resolution=None):
+        """The light grid of a resolution factor (the default of docs/ambient_scattering.rst §3
+        when None: :func:`pv_ambient.rendering.presets.light_resolution_for`)."""
+        from ..stages.propagation import make_light_grid
+
+        f = light_resolution_for(self.optics, self.geometry) if light_resolution is None else light_resolution
+        return self.cache.get(("light_grid", float(f)), lambda: make_light_grid(self.geometry, f))
+
+    def sigma_on_light_grid(self, grid):
+        from ..stages.propagation import sigma_on_grid
+
+        return self.cache.get(("sigma_l", grid.key()), lambda: sigma_on_grid(self.optics, grid))
+
+    def optical_depth(self, light, grid, backend="cpu"):
+        """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light),
+        swept on ``backend`` (``"cpu"`` or ``"cuda"``) when not cached."""
+        from ..stages.propagation import optical_depth
+
+        key = ("tau", light, grid.key())
+        if key not in self.cache:
+            self.cache[key] = self._timed(f"light volume {light}", lambda: optical_depth(
+                self.sigma_on_light_grid(grid), grid, self.geometry, light, device_cache=self.device_for(backend)))
+        return self.cache[key]
+
+    def scattering_nodes(self, grid):
+        """The light-grid nodes nearest to a data sample that scatters (cached)."""
+        from ..stages.medium import scattering_nodes
+
+        return self.cache.get(("scattering_nodes", grid.key()), lambda: scattering_nodes(self.optics, grid))
+
+    def active_lights(self, lights, grid, backend="cpu"):
+        """The lights of ``lights`` that reach the scattering medium — the one place that decides
+        whether a light matters: none when nothing scatters (σt·albedo = 0 everywhere: no light
+        volume is built), else those of non-zero power whose optical depth is at most
+        ``TAU_OPAQUE`` at some node next to a sample that scatters (cached with the light: not
+        repeated at every camera move)."""
+        if not self.cache.get(("scatters", grid.key()), lambda: bool(self.scattering_nodes(grid).any())):
+            return ()
+        out = []
+        for lt in lights:
+            if max(lt.power) <= 0.0:
+                continue
+
+            def reaches(lt=lt):
+                tau = self.optical_depth(lt, grid, backend)
+                return float(np.min(tau[self.scattering_nodes(grid)])) <= TAU_OPAQUE
+
+            if self.cache.get(("reaches", lt, grid.key()), reaches):
+                out.append(lt)
+        return tuple(out)
+
+    def stacked(self, kind, lights, grid, parts, extra=()):
+        """``parts`` (one light-grid array per light) side by side along a last axis
+        (:func:`pv_ambient.stages.medium.stack_volumes`), made once per light set, grid and
+        ``extra`` and cached under stage ``kind`` (a relight replaces it): a camera move copies no
+        light volume, and the CUDA backend finds the same array, already on the GPU."""
+        from ..stages.medium import stack_volumes
+
+        key = (kind, tuple(lights), grid.key()) + tuple(extra)
+        if key not in self.cache:
+            self._replace(kind, key, stack_volumes(parts))
+        return self.cache[key]
+
+    # -- ambient scattering ------------------------------------------------------------------
+    def table_key(self, phase, radius, quality):
+        """The cache key of the table slice a render needs: keyed on the albedo nodes the scene's
+        range needs, so nearby ranges share one slice."""
+        from ..stages.preintegration import albedo_nodes_for
+
+        lo, hi = self.albedo_range(radius)
+        return ("table", phase.kind, float(phase.g), tuple(albedo_nodes_for(lo, hi).tolist()), quality)
+
+    def table(self, phase, radius, quality="balanced", progress_bar=False):
+        """The preintegrated D/F slice for ``phase`` and the albedo range the scene needs (cached)."""
+        from ..stages.preintegration import get_table
+
+        key = self.table_key(phase, radius, quality)
+        if key not in self.cache:
+            lo, hi = self.albedo_range(radius)
+            self.cache[key] = self._timed("table", lambda: get_table(phase, albedo_range=(lo, hi), quality=quality,
+                                                                     progress_bar=progress_bar))
+        return self.cache[key]
+
+    def front_depth(self, light, grid, radius, phase, quality="balanced"):
+        """Tube-mode front optical depth per channel, (m0, m1, m2, 3) float32 (cached per light, r, table)."""
+        from ..stages.propagation import front_depth
+
+        key = ("front", light, grid.key(), float(radius), self.table_key(phase, radius, quality))
+        if key not in self.cache:
+            table = self.table(phase, radius, quality)
+            self.cache[key] = self._timed(f"front volume {light}", lambda: front_depth(
+                self.ball_inside(radius), grid, self.geometry, light, radius, table))
+        return self.cache[key]
+
+    # -- baked in-scattering and diffusion ---------------------------------------------------
+    def incident(self, model_id, lights, grid, records, key, diffusion=None):
+        """The baked in-scattered light of ``lights`` on ``grid``, ``(array, nch)``
+        (:func:`pv_ambient.stages.bake.bake_incident`): ``records`` are the kernel's Lights,
+        LightGrid and Ambient records, ``key`` what else they depend on (model, the d² clamp,
+        radius, table, propagation, diffusion options). A camera move reads it; a relight rebakes it
+        from the cached light volumes (one pass over the light grid)."""
+        from ..stages.bake import bake_incident
+
+        key = ("incident", tuple(lights), grid.key()) + tuple(key)
+        if key not in self.cache:
+            value = self._timed("baked in-scattering", lambda: bake_incident(model_id, records, self.geometry, grid,
+                                                                             diffusion))
+            self._replace("incident", key, value)
+        return self.cache[key]
+
+    def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
+                  sweep_orders=0):
+        """The multiply-scattered light of ``lights`` packed for the camera pass, and its solve's
+        information: ``(field, info)`` — the field as
+        :func:`pv_ambient.stages.diffusion.packing.pack_for_march` packs it, summed over the lights,
+        ``info`` the iterations, residual and convergence of the last light's solve (kept with its
+        solution; None without lights).
+
+        One solve per light, cached per light: a relight re-solves only the light that changed
+        (from a zero start). σt and albedo are checked and converted once per scene; each light's
+        optical depth comes from :meth:`optical_depth` on the light grid of ``grid``'s factor;
+        ``sweep_orders``: the first scattering orders by transport sweeps (docs/diffusion.rst §5)."""
+        from ..stages.diffusion.packing import add_packed
+
+        g = float(phase.mean_cosine)
+        sweep = int(sweep_orders)
+        # the sweeps need the phase function itself, plain diffusion only its mean cosine
+        keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited))
+                     + ((sweep, phase.canonical()) if sweep else ()) for lt in lights)
+        if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
+            return self.cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
+        total, info = None, None
+        for lt, key in zip(lights, keys):
+            if key not in self.cache:
+                self.cache[key] = self._timed(f"diffusion {lt}", lambda: self._solve(
+                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend))
+            part, info = self.cache[key]
+            total = add_packed(total, part)
+        if len(keys) > 1:
+            self.cache[("diffusion_sum", keys)] = (total, info)
+        return (total if total is not None else K.NONE12), info
+
+    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend):
+        from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light
+        from ..stages.diffusion.packing import pack_for_march
+
+        g = float(phase.mean_cosine)
+        if sweep:  # the classified field's node means (docs/diffusion.rst §5)
+            medium = self.cache.get(("diffusion_medium_hat",), lambda: hat_medium(self.optics, self.geometry))
+        else:
+            medium = self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
+                self.optics.sigma_grid(), self.optics.albedo_grid()))
+        lgrid = self.light_grid(grid.factor)
+        extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
+        sol = solve_for_light(light, phase if sweep else g, medium=medium, geometry=self.geometry,
+                              tau=self.optical_depth(light, lgrid, backend), light_grid=lgrid,
+                              flux_limited=flux_limited, progress_bar=progress_bar, **extra)
+        info = {"iterations": int(sol.iterations), "residual": float(sol.residual), "converged": bool(sol.converged)}
+        return pack_for_march(sol, g), info

@@ -1,0 +1,37 @@
+"""Per-scene grids derived from the classified medium alone: the majorant of σt over blocks
+(empty-space skipping and the path tracer's free-flight bound) and the light-grid nodes next to a
+sample that scatters (whether a light can matter at all, docs/lights.rst)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def majorant_grid(optics, block) -> np.ndarray:
+    """Upper bound of σt over each block of ``block``³ samples: float32, one value per block."""
+    from .._kernels.majorant import build_majorant
+
+    shape = tuple(max(1, -(-(n - 1) // block)) for n in optics.field.shape)
+    maj = np.zeros(shape, np.float32)
+    build_majorant(optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, block, maj)
+    return maj
+
+
+def scattering_nodes(optics, grid) -> np.ndarray:
+    """The nodes of light grid ``grid`` nearest to a data sample that scatters (σt·albedo > 0):
+    a boolean array of the grid's shape."""
+    from .._kernels.medium import scattering_nodes as mark
+
+    o = optics
+    node = [np.clip(np.rint((np.arange(n) - grid.lo[a]) * grid.inv_step[a]).astype(np.intp), 0, grid.shape[a] - 1)
+            for a, n in enumerate(o.field.shape)]
+    mask = np.zeros(tuple(grid.shape), np.bool_)
+    mark(o.mode, o.field, o.table, float(o.lut_lo), float(o.lut_inv), o.aux, *node, mask)
+    return mask
+
+
+def stack_volumes(parts) -> np.ndarray:
+    """One light-grid array per light, (m0, m1, m2) or (m0, m1, m2, c), side by side along a last
+    axis as the kernels' records take them (the one array itself for a single light)."""
+    parts = [a if a.ndim == 4 else a[..., None] for a in parts]
+    return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
