@@ -298,7 +298,9 @@ def main(argv=None) -> int:
         args.rest = extra + list(args.rest)  # `bench --backend cuda ...`: options go to the benchmark
     try:
         return args.func(args)
-    except (ValueError, TypeError, FileNotFoundError, KeyError, MemoryError) as exc:
+    except (ValueError, TypeError, FileNotFoundError, KeyError, MemoryError, ImportError) as exc:
+        # one line, no traceback: a bad input, or an optional package an option needs (the message
+        # names the extra to install)
         print(f"pv-ambient: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

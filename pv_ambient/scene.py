@@ -58,7 +58,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .inputs.validation import check_choice, check_real, check_window_size
-from .backend import BACKENDS
+from .backend import check_backend
+from .rendering.result import DISPLAY_KEYS, unknown_display_keys
 from .rendering.presets import QUALITIES
 from .rendering.request import check_image_memory
 from .rendering.presets import SCENE_OPTIONS as MODEL_KEYS
@@ -145,7 +146,7 @@ def _parse(data, base: Path, *, read_volume: bool) -> Scene:
     rk = {"transfer_function": data.get("transfer_function"), "scalars": data.get("scalars"),
           "lights": data.get("lights"), "preference": data.get("preference", "point"),
           "nan_policy": data.get("nan_policy", "raise"),
-          "backend": check_choice(data.get("backend", "auto"), "backend", BACKENDS)}
+          "backend": check_backend(data.get("backend", "auto"))}
     quality = check_choice(data.get("quality", "balanced"), "quality", QUALITIES)
     kw = {"camera": data.get("camera"), "window_size": size, "model": data.get("model", "emission_absorption"),
           "background": data.get("background", (0.0, 0.0, 0.0)), "seed": data.get("seed", 0),
@@ -158,8 +159,8 @@ def _parse(data, base: Path, *, read_volume: bool) -> Scene:
         if k in data:
             kw[k] = data[k]
     display = data.get("display", {})
-    if not isinstance(display, dict) or set(display) - {"exposure", "tonemap", "srgb"}:
-        raise ValueError(f"display must hold only exposure, tonemap, srgb; got {display!r}")
+    if not isinstance(display, dict) or unknown_display_keys(display):
+        raise ValueError(f"display must hold only {', '.join(DISPLAY_KEYS)}; got {display!r}")
     if display.get("exposure", "auto") != "auto":
         check_real(display["exposure"], "display exposure (a number of stops or 'auto')")
     return Scene(grid=grid, renderer_kwargs=rk, render_kwargs=kw, display=dict(display))

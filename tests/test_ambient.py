@@ -11,6 +11,7 @@ from pv_ambient.inputs.camera import Camera
 from pv_ambient.inputs.phase import as_phase
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
+from pv_ambient.rendering.request import resolve_radius
 
 CAM = Camera((0.2, -4.0, 0.3), (0, 0, 0), (0, 0, 1), view_angle=35)
 SIZE = (24, 20)

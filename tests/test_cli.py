@@ -157,3 +157,26 @@ def test_bench_backend_cuda_runs_the_gpu_benchmark(monkeypatch):
     assert seen["path"].endswith("gpu.py") and seen["argv"][1:] == ["--cases", "8:4", "--repeats", "1"]
     assert main(["bench", "ambient", "--sizes", "16"]) == 0
     assert seen["path"].endswith("ambient.py") and seen["argv"][1:] == ["--sizes", "16"]
+
+
+def test_cli_denoise_without_pyoidn_is_one_line_before_any_work(tmp_path, capsys, monkeypatch):
+    """Why: a scene asking for ``"denoise": true`` without pyoidn rendered the base picture first,
+    then printed a full traceback. Now: exit status 2, one line naming the extra, no output file,
+    and no kernel launched."""
+    from pv_ambient import backend
+    from pv_ambient.stages import denoise
+
+    monkeypatch.setattr(denoise, "available", lambda: False)
+    monkeypatch.setitem(sys.modules, "pyoidn", None)
+
+    def work(*a, **k):
+        raise AssertionError("a kernel ran before the request was checked")
+
+    monkeypatch.setattr(backend, "run_raycast", work)
+    scene = {"volume": {"dataset": "cloud", "n": 12}, "image": {"width": 8, "height": 6}, "model": "progressive",
+             "samples_per_pixel": 32, "denoise": True}
+    out = tmp_path / "o.png"
+    assert cli.main(["render", str(_write(tmp_path, scene)), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pv_ambient[denoise]" in err and "Traceback" not in err
+    assert not out.exists()

@@ -126,6 +126,20 @@ def default_lights(camera):
                  for _, el, az, k in DEFAULT_RIG)
 
 
+def default_view_lights():
+    """The default rig for PyVista's default (isometric) view of a volume, whatever its bounds:
+    the rig depends on the view's direction alone. What lights every frame of a series whose
+    frames have no camera (docs/series.rst).
+
+    >>> from pv_ambient.inputs.camera import as_camera
+    >>> default_view_lights() == default_lights(as_camera(None, bounds=(0, 5, 0, 2, 0, 9))[0])
+    True
+    """
+    from .camera import as_camera
+
+    return default_lights(as_camera(None, bounds=(-1.0, 1.0, -1.0, 1.0, -1.0, 1.0))[0])
+
+
 def is_pyvista_light(spec) -> bool:
     """Whether ``spec`` is a ``vtkLight`` (a ``pyvista.Light``), told by its VTK methods."""
     return all(hasattr(spec, m) for m in ("GetPositional", "GetLightType", "GetIntensity", "GetFocalPoint"))

@@ -21,20 +21,15 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..inputs.camera import Camera, as_camera
-from ..inputs.lights import as_lights
+from ..inputs.lights import as_lights, default_view_lights
 from ..inputs.transfer import as_transfer_function
 from ..inputs.validation import check_choice, check_int, check_real
 from ..rendering.presets import ALL_MODELS, MODEL_OPTIONS, MODEL_SPECS
+from ..rendering.result import DISPLAY_KEYS, unknown_display_keys  # noqa: F401 (DISPLAY_KEYS: re-exported)
 from .movie import check_movie_support, write_movie
 from .volumes import for_worker, is_grid, resolve_volumes
 from .worker import FrameSpec, forget_renderers, frame_outputs, remove_parts, render_frame
 
-#: Display keys a PNG accepts (``RenderResult.to_uint8``).
-DISPLAY_KEYS = ("exposure", "tonemap", "srgb")
-#: Bounds of the stand-in box whose default (isometric) view places the default light rig when the
-#: frames have no camera: the view's direction, all the rig depends on, is the same for any bounds;
-#: the volumes' own bounds are known on the workers only, and one rig lights every frame.
-RIG_VIEW_BOUNDS = (-1.0, 1.0, -1.0, 1.0, -1.0, 1.0)
 
 MISSING_DISTRIBUTED = ("render_series with client={!r} needs dask.distributed: install the 'distributed' extra "
                        "(pip install 'pv_ambient[distributed]'), or pass client='synchronous' to render in this "
@@ -177,7 +172,7 @@ def _check_options(model, render_options, display, movie, fps, numba_threads):
         raise TypeError(f"render_series() got unknown options {sorted(unknown)}; render options are "
                         f"{sorted(_render_parameters())}")
     display = dict(display or {})
-    if set(display) - set(DISPLAY_KEYS):
+    if unknown_display_keys(display):
         raise ValueError(f"display must hold only {', '.join(DISPLAY_KEYS)}; got {sorted(display)}")
     if movie is not None:
         check_movie_support(movie)
@@ -191,10 +186,10 @@ def _renderer_kwargs(model, first_camera, *, transfer_function, lights, scalars,
                      nan_policy, backend) -> dict:
     """The :class:`~pv_ambient.Renderer` arguments of every frame, checked once. Lights not given
     (None) and a lit model: the default rig (docs/lights.rst) from its owner, placed once from the
-    first frame's camera (or :data:`RIG_VIEW_BOUNDS`' default view), so an orbit keeps its lighting."""
+    first frame's camera (or PyVista's default view: the volumes' bounds are known on the workers
+    only, and one rig lights every frame), so an orbit keeps its lighting."""
     if lights is None and MODEL_SPECS[model].lit:
-        camera = first_camera if first_camera is not None else as_camera(None, bounds=RIG_VIEW_BOUNDS)[0]
-        lights = as_lights(None, camera=camera)
+        lights = as_lights(None, camera=first_camera) if first_camera is not None else default_view_lights()
     kwargs = {"transfer_function": as_transfer_function(transfer_function), "scalars": scalars,
               "component": component, "lights": as_lights(lights if lights is not None else ()),
               "preference": preference, "nan_policy": nan_policy, "backend": backend}

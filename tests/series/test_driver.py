@@ -149,16 +149,16 @@ def test_own_cluster_workers_start_with_their_numba_threads():
 
 def test_default_rig_without_a_camera_comes_from_the_lights_owner(tmp_path):
     # lights and camera not given, a lit model: the rig of inputs.lights, placed once from the default
-    # view's direction (RIG_VIEW_BOUNDS), the same for every frame whatever each volume's bounds
+    # view's direction, the same for every frame whatever each volume's bounds (a volume's own default
+    # view gives the same rig)
     from pv_ambient.inputs.camera import default_camera
     from pv_ambient.inputs.lights import as_lights
-    from pv_ambient.series.driver import RIG_VIEW_BOUNDS
 
     grids = [datasets.cloud(n=12, seed=0), datasets.cloud(n=12, seed=1)]
     res = render_series(grids, out_dir=tmp_path, client="synchronous", radiance=True, progress_bar=False,
                         transfer_function=TF, model="single_scattering", window_size=(12, 10), quality="preview")
     assert res.n_rendered == 2
-    rig = as_lights(None, camera=default_camera(RIG_VIEW_BOUNDS))
+    rig = as_lights(None, camera=default_camera(grids[0].bounds))
     assert len(rig) == 2
     for i, grid in enumerate(grids):
         ref = pa.render(grid, transfer_function=TF, lights=rig, window_size=(12, 10), model="single_scattering",
