@@ -22,9 +22,7 @@ Usage: ``python benchmarks/control_step.py [--scenes NAME ...] [--out DIR]`` (wr
 from __future__ import annotations
 
 import argparse
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -75,12 +73,9 @@ def run_scene(name, log):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
-    ap.add_argument("--out", default=None, help="directory of control_step.txt (default benchmarks/results)")
+    refs.add_scene_options(ap, SCENES, "control_step")
     args = ap.parse_args(argv)
-    out = Path(args.out) if args.out else refs.RESULTS
-    log = refs.Log(out / "control_step.txt", "python benchmarks/control_step.py " + " ".join(
-        sys.argv[1:] if argv is None else argv))
+    log = refs.results_log("control_step", args.out, argv)
     log(f"pv_ambient at {refs.commit()}; {refs.SIZE[0]}×{refs.SIZE[1]} pixels, {refs.N}³ data points; base: diffusion, "
         f"{AUTO_SWEEP_ORDERS} sweeps + FL; the exact integral stood in by the march at 1/16 of the step; "
         f"CONTROL_STEP_FRACTION = {CONTROL_STEP_FRACTION}")

@@ -28,9 +28,7 @@ directory. Usage::
 from __future__ import annotations
 
 import argparse
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -76,13 +74,10 @@ def run_scene(name, seeds, log):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    refs.add_scene_options(ap, SCENES, "drag_frame")
     ap.add_argument("--seeds", type=int, default=4)
-    ap.add_argument("--out", default=None, help="directory of drag_frame.txt (default benchmarks/results)")
     args = ap.parse_args(argv)
-    out = Path(args.out) if args.out else refs.RESULTS
-    log = refs.Log(out / "drag_frame.txt", "python benchmarks/drag_frame.py " + " ".join(
-        sys.argv[1:] if argv is None else argv))
+    log = refs.results_log("drag_frame", args.out, argv)
     log(f"pv_ambient at {refs.commit()}; drag frames at {refs.SIZE[0] // 2}×{refs.SIZE[1] // 2} pixels shown at "
         f"{refs.SIZE[0]}×{refs.SIZE[1]}, {refs.N}³ data points; 4×4-block relative RMSE; jittered: mean over "
         f"{args.seeds} seeds")

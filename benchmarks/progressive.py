@@ -52,10 +52,8 @@ Writes ``benchmarks/results/progressive.txt`` (the table; first line the command
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -265,14 +263,11 @@ def plot(rows, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    refs.add_scene_options(ap, SCENES, "progressive")
     ap.add_argument("--max-spp", type=int, default=256)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--out", default=None, help="directory of progressive.txt/.png (default benchmarks/results)")
     args = ap.parse_args(argv)
-    out = Path(args.out) if args.out else refs.RESULTS
-    log = refs.Log(out / "progressive.txt", "python benchmarks/progressive.py " + " ".join(sys.argv[1:] if argv is None
-                                                                                          else argv))
+    log = refs.results_log("progressive", args.out, argv)
     log(f"pv_ambient at {refs.commit()}; {refs.SIZE[0]}×{refs.SIZE[1]} pixels, {refs.N}³ data points, quality 'balanced'; "
         f"denoised path tracer: {'measured' if have_oidn() else 'not measured (pyoidn not installed)'}")
     nf.warm_up(args.scenes[0])
@@ -291,7 +286,7 @@ def main(argv=None):
         every3 = [row["name"] for row in rows if all(row["ok3"][which])]
         log(f"  scene by scene, at every budget: {len(every)} of {len(rows)}" + (f" ({', '.join(every)})" if every else "")
             + f" [{len(every3)} of {len(rows)}" + (f": {', '.join(every3)}" if every3 else "") + "]")
-    plot(rows, out / "progressive.png")
+    plot(rows, log.path.with_suffix(".png"))
 
 
 if __name__ == "__main__":

@@ -11,8 +11,8 @@ references' block noise, and the log that writes a results file.
   (trade.py, baked.py, diffusion_sweeps.py), with its light mask and block noise.
 * :func:`block_noise` — a reference's standard error averaged over 4×4 blocks, relative to its
   mean: it must stay well below the errors it measures.
-* :class:`Log` and :func:`commit` — print, keep and write a results file headed by the command and
-  the commit.
+* :class:`Log`, :func:`results_log` and :func:`commit` — print, keep and write a results file
+  headed by the command and the commit.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import json
 import subprocess
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -59,6 +60,20 @@ class Log:
         if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self.path.write_text("\n".join(self.lines) + "\n")
+
+
+def add_scene_options(ap, scenes, name):
+    """``--scenes`` (any of ``scenes``, all by default) and ``--out`` (the folder of ``NAME.txt``) on
+    the argument parser ``ap``; :func:`results_log` reads ``--out``."""
+    ap.add_argument("--scenes", nargs="+", default=list(scenes), choices=list(scenes))
+    ap.add_argument("--out", default=None, help=f"directory of {name}.txt (default benchmarks/results)")
+
+
+def results_log(name, out=None, argv=None):
+    """The :class:`Log` of ``benchmarks/NAME.py``: written to ``NAME.txt`` in ``out`` (default
+    benchmarks/results), headed by the command (``argv``: its arguments; ``sys.argv``'s when None)."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    return Log((Path(out) if out else RESULTS) / f"{name}.txt", " ".join(["python", f"benchmarks/{name}.py", *args]))
 
 
 def commit():
