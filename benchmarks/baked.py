@@ -23,19 +23,19 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import numpy as np  # noqa: E402
-
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import metrics  # noqa: E402
 from pv_ambient.rendering import presets  # noqa: E402
-from trade import scenes  # noqa: E402
+
+import references as refs  # noqa: E402  (benchmarks/: on sys.path above)
+import scenes  # noqa: E402
+from trade import REF_SEED, reference_options  # noqa: E402
 
 CONFIGS = [
     ("single_scattering", "preview", {"quality": "preview"}),
@@ -63,28 +63,21 @@ def render(r, cam, size, g, model, opts, bake):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=64)
-    ap.add_argument("--size", type=int, default=96)
-    ap.add_argument("--ref-error", type=float, default=0.01)
-    ap.add_argument("--ref-max-spp", type=int, default=8192)
+    reference_options(ap)
     args = ap.parse_args(argv)
     size = (args.size, args.size)
     print(f"# python benchmarks/baked.py --n {args.n} --size {args.size} --ref-error {args.ref_error}")
     worst = 0.0
-    for name, grid, tf, lights, g, cam in scenes(args.n):
+    for name, grid, tf, lights, g, cam in scenes.of_group("trade", args.n):
         if name == "ct_phantom":  # two coloured point lights: rendered isotropic here, to be baked
             name, g = "ct_phantom with g = 0 (the trade uses 0.3)", 0.0
         if g != 0.0:
             print(f"\n{name}: phase g = {g} (anisotropic): not baked, skipped")
             continue
         r = pa.Renderer(grid, transfer_function=tf, lights=lights)
-        t = time.perf_counter()
-        ref = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=12345,
-                       samples_per_pixel=args.ref_max_spp, target_error=args.ref_error)
-        mask = metrics.light_mask(size[::-1], cam, size, lights)
-        noise = float(np.sqrt(np.mean(ref.std_error[mask] ** 2) / 16) / np.mean(ref.radiance[mask]))
-        print(f"\n{name}: reference {ref.metadata['spp']} spp in {time.perf_counter() - t:.1f} s,"
-              f" block noise {noise:.4f}")
+        ref, mask, noise, t = refs.trace(r, cam, size, g, lights, seed=REF_SEED, spp=args.ref_max_spp,
+                                         target_error=args.ref_error)
+        print(f"\n{name}: reference {ref.metadata['spp']} spp in {t:.1f} s, block noise {noise:.4f}")
         print(f"  {'model':20s} {'preset':18s} {'block exact':>11} {'block baked':>11} {'change':>7}"
               f" {'bias exact':>10} {'bias baked':>10} {'baked vs exact':>14}")
         for model, preset, opts in CONFIGS:

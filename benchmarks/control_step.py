@@ -22,18 +22,16 @@ Usage: ``python benchmarks/control_step.py [--scenes NAME ...] [--out DIR]`` (wr
 from __future__ import annotations
 
 import argparse
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 
-import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
 import pv_ambient as pa
+import references as refs  # (benchmarks/: the script's directory is on sys.path)
 import scenes as scene_registry
 from pv_ambient import metrics
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS, CONTROL_STEP_FRACTION
-from _timing import median_time
+from timing import median_time
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 FRACTIONS = (1.0, 0.5, 0.25)
@@ -43,18 +41,18 @@ BASE = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}
 
 def march(r, cam, g, fraction, repeats=5):
     """The base model's picture at ``fraction`` of the default step, and the median time of ``repeats``
-    (benchmarks/_timing.py's rule)."""
-    kw = dict(camera=cam, window_size=nf.SIZE, model="diffusion", phase=g, progress_bar=False,
+    (benchmarks/timing.py's rule)."""
+    kw = dict(camera=cam, window_size=refs.SIZE, model="diffusion", phase=g, progress_bar=False,
               step=fraction * r.default_step(), **BASE)
     img = r.render(**kw).radiance.astype(np.float64)
     return img, median_time(lambda k: r.render(**kw), repeats)
 
 
 def run_scene(name, log):
-    grid, tf, lights, g, cam = scene_registry.scene(name, nf.N)
+    grid, tf, lights, g, cam = scene_registry.scene(name, refs.N)
     r = pa.Renderer(grid, transfer_function=tf, lights=lights)
-    mask = metrics.light_mask(nf.SIZE[::-1], cam, nf.SIZE, lights)
-    ref, info, how = nf.reference(name, r, lights, g, cam, mask, False)
+    mask = metrics.light_mask(refs.SIZE[::-1], cam, refs.SIZE, lights)
+    ref, info, how = refs.reference(name, r, lights, g, cam, mask, False)
     ref = ref.astype(np.float64)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -75,13 +73,10 @@ def run_scene(name, log):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
-    ap.add_argument("--out", default=None, help="directory of control_step.txt (default benchmarks/results)")
+    refs.add_scene_options(ap, SCENES, "control_step")
     args = ap.parse_args(argv)
-    out = Path(args.out) if args.out else nf.RESULTS
-    log = nf.Log(out / "control_step.txt", "python benchmarks/control_step.py " + " ".join(
-        sys.argv[1:] if argv is None else argv))
-    log(f"pv_ambient at {nf._commit()}; {nf.SIZE[0]}×{nf.SIZE[1]} pixels, {nf.N}³ data points; base: diffusion, "
+    log = refs.results_log("control_step", args.out, argv)
+    log(f"pv_ambient at {refs.commit()}; {refs.SIZE[0]}×{refs.SIZE[1]} pixels, {refs.N}³ data points; base: diffusion, "
         f"{AUTO_SWEEP_ORDERS} sweeps + FL; the exact integral stood in by the march at 1/16 of the step; "
         f"CONTROL_STEP_FRACTION = {CONTROL_STEP_FRACTION}")
     for name in args.scenes:

@@ -3,7 +3,7 @@ the trade benchmark's three (supernova shell lit from its centre, forward-scatte
 point light, CT-like phantom with two coloured point lights; 96², 8192 spp or 1 % standard
 error) and three it does not use (smoke plume, Marschner–Lobb lit from its centre, the cloud
 under a directional light seen from the sun's side; 64², 4096 spp or 1 %). The scenes are those
-of ``benchmarks/trade.py`` and ``benchmarks/diffusion_floor.py`` (``benchmarks/scenes.py``).
+of ``benchmarks/trade.py`` and the diffusion floor's (``benchmarks/scenes.py``).
 
 For each scene and configuration: 4×4-block relative RMSE and relative bias of the image mean
 against the reference (light windows masked, ``metrics.light_mask``), and the first-frame time
@@ -29,7 +29,8 @@ import numpy as np  # noqa: E402
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import metrics  # noqa: E402
 
-import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
+import references as refs  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+import scenes as scene_registry  # noqa: E402
 
 #: (label, options) of the configurations compared; the last is ``auto``'s with "accurate".
 CONFIGS = [
@@ -44,7 +45,7 @@ CONFIGS = [
 def scene(name, n=64):
     """(grid, transfer function, lights, phase g, camera, image size, reference seed, max spp): the
     scene of benchmarks/scenes.py with its benchmark's image size and reference settings (the
-    trade's: 96², seed 12345, 8192 spp; diffusion_floor.py's: 64², seed 99, 4096 spp)."""
+    trade's: 96², seed 12345, 8192 spp; the diffusion floor's: 64², seed 99, 4096 spp)."""
     size, seed, spp = (96, 12345, 8192) if scene_registry.group_of(name) == "trade" else (64, 99, 4096)
     return (*scene_registry.scene(name, n), size, seed, spp)
 
@@ -77,7 +78,7 @@ def main(argv=None):
         base = pa.Renderer(grid, transfer_function=tf, lights=lights)
         ref, se = reference(name, base, g, cam, size, seed, spp, args.ref_cache)
         mask = metrics.light_mask((size, size), cam, (size, size), lights)
-        noise = float(np.sqrt(np.mean(se[mask] ** 2) / 16) / np.mean(ref[mask]))
+        noise = refs.block_noise(ref, se, mask)
         print(f"{name} ({size}², reference block noise {noise:.4f})", flush=True)
         base.render(camera=cam, window_size=(size, size), model="single_scattering", phase=g)  # light volumes
         for label, opts in CONFIGS:

@@ -19,21 +19,21 @@ diffusion plain / flux-limited / with ``AUTO_SWEEP_ORDERS`` transport sweeps), t
 with it (mean over seeds 0–3, and their range). Prints the table, then per step the number of
 (scene, model) cells where jitter lowers the error and the median change.
 
-Writes ``benchmarks/results/drag_frame.txt`` (first line the command). Usage::
+Writes ``benchmarks/results/drag_frame.txt`` (first line the command) unless ``--out`` names another
+directory. Usage::
 
-    python benchmarks/drag_frame.py [--scenes NAME ...] [--seeds 4]
+    python benchmarks/drag_frame.py [--scenes NAME ...] [--seeds 4] [--out DIR]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import warnings
 
 import numpy as np
 
-import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
 import pv_ambient as pa
+import references as refs  # (benchmarks/: the script's directory is on sys.path)
 import scenes as scene_registry
 from progressive import NOISE_FREE, upsampled
 from pv_ambient import metrics
@@ -43,12 +43,12 @@ STEPS = (1, 2, 4)
 
 
 def run_scene(name, seeds, log):
-    grid, tf, lights, g, cam = scene_registry.scene(name, nf.N)
+    grid, tf, lights, g, cam = scene_registry.scene(name, refs.N)
     r = pa.Renderer(grid, transfer_function=tf, lights=lights)
-    size = nf.SIZE
+    size = refs.SIZE
     half = (size[0] // 2, size[1] // 2)
     mask = metrics.light_mask(size[::-1], cam, size, lights)
-    ref, info, how = nf.reference(name, r, lights, g, cam, mask, False, size)
+    ref, info, how = refs.reference(name, r, lights, g, cam, mask, False, size)
     step = r.default_step()
     rows = []
     with warnings.catch_warnings():
@@ -74,13 +74,12 @@ def run_scene(name, seeds, log):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    refs.add_scene_options(ap, SCENES, "drag_frame")
     ap.add_argument("--seeds", type=int, default=4)
     args = ap.parse_args(argv)
-    log = nf.Log(nf.RESULTS / "drag_frame.txt", "python benchmarks/drag_frame.py " + " ".join(
-        sys.argv[1:] if argv is None else argv))
-    log(f"pv_ambient at {nf._commit()}; drag frames at {nf.SIZE[0] // 2}×{nf.SIZE[1] // 2} pixels shown at "
-        f"{nf.SIZE[0]}×{nf.SIZE[1]}, {nf.N}³ data points; 4×4-block relative RMSE; jittered: mean over "
+    log = refs.results_log("drag_frame", args.out, argv)
+    log(f"pv_ambient at {refs.commit()}; drag frames at {refs.SIZE[0] // 2}×{refs.SIZE[1] // 2} pixels shown at "
+        f"{refs.SIZE[0]}×{refs.SIZE[1]}, {refs.N}³ data points; 4×4-block relative RMSE; jittered: mean over "
         f"{args.seeds} seeds")
     allrows = {name: run_scene(name, args.seeds, log) for name in args.scenes}
     log("\nsummary: (scene, model) cells where the jittered drag frame's mean error is lower than the fixed one's; "

@@ -1,11 +1,13 @@
 """Emission–absorption: pv_ambient's Numba ray marcher against VTK's volume mappers.
 
-For each volume size, one run renders the same dataset, transfer function, camera and sample
-distance with VTK's ``fixed_point`` and ``gpu`` mappers (linear interpolation, explicit sample
-distance, off-screen, image read back) and with ``pv_ambient`` (a camera-move frame: caches warm).
-Each timing is the median of ``--repeats`` frames after one warm-up frame, each frame with the
-camera rotated by one degree. Printed as ratios (ours / VTK) measured in this run; absolute
-times are printed for context only. Also prints the image agreement (uint8, mean and p99 of
+For each volume size, one run renders the same scene (``--scene`` of benchmarks/scenes.py,
+``supernova_centre`` by default: its dataset, transfer function and camera), sample distance and
+image size with VTK's ``fixed_point`` and ``gpu`` mappers (linear interpolation, explicit sample
+distance, off-screen, image read back inside the clock: benchmarks/timing.py's peer) and with
+``pv_ambient`` (a camera-move frame: caches warm). For each mapper, VTK's frames and ours are
+interleaved, the camera turned by one degree per frame, after one warm-up pair; each timing is the
+median of ``--repeats``. Printed as ratios (ours / VTK) measured in this run; absolute times are
+printed for context only. Also prints the image agreement at the last camera (uint8, mean and p99 of
 the absolute difference).
 
 Usage: ``python benchmarks/ea_vs_vtk.py [--sizes 128 256] [--window 512] [--repeats 5]``
@@ -15,49 +17,20 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
+import sys
+from pathlib import Path
 
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-import pyvista as pv  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
-from pv_ambient import datasets  # noqa: E402
-from pv_ambient.inputs.camera import default_camera  # noqa: E402
-from pv_ambient.pyvista.vtk_bridge import add_vtk_volume  # noqa: E402
+import scenes  # noqa: E402  (benchmarks/scenes.py)
+from timing import VtkPeer, interleaved  # noqa: E402
 
-
-def vtk_frames(grid, renderer, cam, size, step, mapper, repeats):
-    pl = pv.Plotter(off_screen=True, window_size=size)
-    pl.set_background("black")
-    add_vtk_volume(pl, grid, renderer, step=step, mapper=mapper)
-    times, img = [], None
-    for k in range(repeats + 1):
-        c = cam.to_vtk(pl.camera)
-        c.Azimuth(float(k))
-        pl.renderer.ResetCameraClippingRange()
-        t = time.perf_counter()
-        pl.render()
-        img = pl.screenshot()
-        if k:
-            times.append(time.perf_counter() - t)
-    first = pa.Camera.from_vtk(pl.camera)
-    pl.close()
-    return float(np.median(times)), img[..., :3], first
-
-
-def our_frames(renderer, cam, size, step, repeats):
-    times, res = [], None
-    for k in range(repeats + 1):
-        c = cam.to_vtk()
-        c.Azimuth(float(k))
-        t = time.perf_counter()
-        res = renderer.render(camera=pa.Camera.from_vtk(c), window_size=size, step=step)
-        if k:
-            times.append(time.perf_counter() - t)
-    return float(np.median(times)), res
+MAPPERS = ("fixed_point", "gpu")
 
 
 def main(argv=None):
@@ -65,30 +38,33 @@ def main(argv=None):
     ap.add_argument("--sizes", type=int, nargs="+", default=[128, 256])
     ap.add_argument("--window", type=int, default=512)
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--dataset", default="supernova")
+    ap.add_argument("--scene", default="supernova_centre", choices=[s for s in scenes.SCENES if s != "supernova_table"])
     args = ap.parse_args(argv)
     size = (args.window, args.window)
-    print(f"EA frame at {size[0]}x{size[1]}, dataset {args.dataset}, median of {args.repeats} after warm-up")
+    print(f"EA frame at {size[0]}x{size[1]}, scene {args.scene}, median of {args.repeats} after a warm-up pair, "
+          "interleaved with each mapper's frames")
     print(f"{'n':>5} {'ours/fixed_point':>17} {'ours/gpu':>9} {'ours s':>8} {'fixed s':>8} {'gpu s':>8}"
           f" {'|d| mean fp':>11} {'p99 fp':>7} {'|d| mean gpu':>12} {'p99 gpu':>8}")
     for n in args.sizes:
-        grid = getattr(datasets, args.dataset)(n=n)
-        style = datasets.suggested_style(args.dataset)
-        tf = pa.TransferFunction(cmap=style["cmap"], clim=style["clim"], opacity=style["opacity"],
-                                 density_scale=style["density_scale"])
+        grid, tf, _, _, cam = scenes.scene(args.scene, n)
         r = pa.Renderer(grid, transfer_function=tf)
-        cam = default_camera(grid.bounds)
         step = r.default_step()
-        t_ours, res = our_frames(r, cam, size, step, args.repeats)
-        row = [t_ours]
-        diffs = []
-        for mapper in ("fixed_point", "gpu"):
-            t_vtk, img, last_cam = vtk_frames(grid, r, cam, size, step, mapper, args.repeats)
-            ours = r.render(camera=last_cam, window_size=size, step=step).to_uint8().astype(int)
-            d = np.abs(ours - img.astype(int))
+
+        def ours(k):
+            r.render(camera=scenes.orbit(cam, k), window_size=size, step=step)
+
+        ratios, ours_s, vtk_s, diffs = [], [], [], []
+        for mapper in MAPPERS:
+            with VtkPeer(grid, r, size, step, mapper=mapper, read_back=True) as vtk:
+                t_ours, t_vtk = interleaved(vtk, ours, lambda k: scenes.orbit(cam, k), args.repeats)
+                img = vtk.image  # the last frame's: the camera turned by --repeats degrees
+            mine = r.render(camera=scenes.orbit(cam, args.repeats), window_size=size, step=step).to_uint8()
+            d = np.abs(mine.astype(int) - img.astype(int))
+            ratios.append(t_ours / t_vtk)
+            ours_s.append(t_ours)
+            vtk_s.append(t_vtk)
             diffs += [d.mean(), np.percentile(d, 99)]
-            row.append(t_vtk)
-        print(f"{n:>5} {row[0] / row[1]:>17.2f} {row[0] / row[2]:>9.2f} {row[0]:>8.3f} {row[1]:>8.3f} {row[2]:>8.3f}"
+        print(f"{n:>5} {ratios[0]:>17.2f} {ratios[1]:>9.2f} {np.median(ours_s):>8.3f} {vtk_s[0]:>8.3f} {vtk_s[1]:>8.3f}"
               f" {diffs[0]:>11.3f} {diffs[1]:>7.1f} {diffs[2]:>12.3f} {diffs[3]:>8.1f}")
 
 

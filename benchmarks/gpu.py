@@ -9,8 +9,9 @@ dependencies); no pyvista, vtk or matplotlib — so a GPU node with only those c
     python benchmarks/gpu.py --compile-only    # no GPU needed: compile every kernel to PTX
     pv-ambient bench --backend cuda            # the same, from the CLI
 
-For each case (supernova volume of n³, window w², one point light at the centre) and model it
-prints, for the GPU and the CPU backend measured in the same process (medians of ``--repeats``
+For each case (the ``supernova_table`` scene of benchmarks/scenes.py at n³: the supernova as the
+array core's Volume with a table transfer function, one point light at the centre; window w²) and
+model it prints, for the GPU and the CPU backend measured in the same process (medians of ``--repeats``
 after a warm-up that pays compilation):
 
 * first frame: a new renderer (classification, majorant, ball σ̄, light volume, uploads) + render;
@@ -18,7 +19,9 @@ after a warm-up that pays compilation):
 * relight: the light moves (its optical depth is swept again — on the GPU for ``cuda``);
 * TF change: a new transfer function (new renderer, warm table cache);
 * the path tracer's camera paths per second (W·H·spp / time);
-* GPU/CPU time ratios, and the largest relative difference between the two images.
+* GPU/CPU time ratios, and the largest relative difference between the two images;
+* with ``--stages``, the stage timings of each warm-up frame (``Renderer.timings``: where a first
+  frame's time goes, compilation included — the question benchmarks/results/gpu.txt leaves open).
 
 ``--compile-only`` compiles the ray-cast, path-tracing and light-sweep kernels to PTX for a
 compute capability (default 9.0, H100) with numba-cuda's NVVM, without a driver or a GPU: it shows
@@ -38,54 +41,43 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout
 
-import datasets_synthetic as ds  # noqa: E402
 import pv_ambient as pa  # noqa: E402
-from pv_ambient.inputs.grid import Volume  # noqa: E402
-from _timing import median_time  # noqa: E402
+import scenes  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+from timing import median_time  # noqa: E402
 
 MODELS = ("emission_absorption", "single_scattering", "ambient_scattering", "diffusion", "path_traced")
+SCENE = "supernova_table"  # benchmarks/scenes.py: the array core's Volume and a table TF (no pyvista)
 
 
-def make_volume(n):
-    v = ds.load("supernova", n=n)
-    return Volume(v.values, spacing=v.spacing, origin=v.origin)
+def cameras(cam):
+    """Eight cameras: ``cam`` orbited in steps of 12.3° (the first frame's and the camera moves')."""
+    return [scenes.orbit(cam, d) for d in np.degrees(np.linspace(0.0, 1.5, 8))]
 
 
-def make_tf(scale=1.0):
-    # a table TF (no matplotlib): σt up to 40/world unit on the shell, albedo 0.9, faint emission
-    return pa.TransferFunction.from_table([0.0, 0.15, 0.5, 1.0], sigma_t=[0.0, 0.0, 20.0 * scale, 40.0 * scale],
-                                          albedo=0.9, color=[[0, 0, 0], [0.2, 0.05, 0.0], [0.9, 0.4, 0.1],
-                                                             [1.0, 0.9, 0.6]])
-
-
-def cameras():
-    return [pa.Camera((3.0 * np.cos(a), 3.0 * np.sin(a), 1.2), (0, 0, 0), (0, 0, 1), view_angle=30.0)
-            for a in np.linspace(0.3, 1.8, 8)]
-
-
-def measure(vol, size, model, backend, repeats, spp):
-    cams = cameras()
-    light = pa.PointLight((0.0, 0.0, 0.0), 3.0)
+def measure(scene, size, model, backend, repeats, spp):
+    vol, tf, (light,), _, cam = scene
+    cams = cameras(cam)
     opts = dict(window_size=size, model=model, backend=backend)
     if model == "path_traced":
         opts["samples_per_pixel"] = spp
     out = {}
-    r = pa.Renderer(vol, transfer_function=make_tf(), lights=[light], backend=backend)
+    r = pa.Renderer(vol, transfer_function=tf, lights=[light], backend=backend)
     r.render(camera=cams[0], **opts)  # warm-up: compilation, table slice on disk
+    out["stages"] = dict(r.timings)  # the warm-up frame's stages (compilation included)
 
     def first(k):
-        rr = pa.Renderer(vol, transfer_function=make_tf(), lights=[light], backend=backend)
+        rr = pa.Renderer(vol, transfer_function=tf, lights=[light], backend=backend)
         out["image"] = rr.render(camera=cams[0], **opts).radiance
     out["first"] = median_time(first, repeats)
     out["camera"] = median_time(lambda k: r.render(camera=cams[k % len(cams)], **opts), repeats)
 
     def relight(k):
-        r.set_lights([pa.PointLight((0.05 * (k + 1), 0.0, 0.0), 3.0)])
+        r.set_lights([pa.PointLight((0.05 * (k + 1), 0.0, 0.0), light.intensity)])
         r.render(camera=cams[0], **opts)
     out["relight"] = median_time(relight, repeats)
 
     def tf_change(k):
-        rr = pa.Renderer(vol, transfer_function=make_tf(1.0 + 0.1 * (k + 1)), lights=[light], backend=backend)
+        rr = pa.Renderer(vol, transfer_function=scenes.table_tf(1.0 + 0.1 * (k + 1)), lights=[light], backend=backend)
         rr.render(camera=cams[0], **opts)
     out["tf"] = median_time(tf_change, repeats)
     if model == "path_traced":
@@ -94,7 +86,9 @@ def measure(vol, size, model, backend, repeats, spp):
 
 
 def compile_only(cc):
-    """Compile the three CUDA kernels to PTX for compute capability ``cc`` (no GPU needed)."""
+    """Compile the three CUDA kernels to PTX for compute capability ``cc`` (no GPU needed): each
+    kernel's arguments are those its CPU driver got on a tiny scene, matched by name."""
+    import inspect
     import types
 
     import numba
@@ -103,36 +97,33 @@ def compile_only(cc):
     import numba.cuda.dispatcher as disp
 
     disp.get_current_device = lambda: types.SimpleNamespace(compute_capability=cc)  # no driver here
-    from pv_ambient._kernels import _jit, lightvol, pathtrace, raycast
     from pv_ambient._kernels import cuda as kc
+    from pv_ambient._kernels import lightvol, pathtrace, raycast
 
+    # kernel name → the CPU driver whose arguments it takes
+    drivers = {"raycast": (raycast, "raycast_image"), "pathtrace": (pathtrace, "pathtrace_image"),
+               "sweep_layer": (lightvol, "sweep_tau")}
     captured = {}
-
-    def capture(name, mod, attr):
-        orig = getattr(mod, attr)
-
-        def f(*args):
-            captured.setdefault(name, args)
-            return orig(*args)
-        setattr(mod, attr, f)
-    capture("raycast", raycast, "raycast_image")
-    capture("pathtrace", pathtrace, "pathtrace_image")
-    capture("sweep", lightvol, "sweep_tau")
-    r = pa.Renderer(make_volume(12), transfer_function=make_tf(), lights=[pa.PointLight((0, 0, 0.3), 3.0)],
-                    backend="cpu")
-    r.render(camera=cameras()[0], window_size=(8, 8), model="ambient_scattering", quality="preview")
-    r.render(camera=cameras()[0], window_size=(8, 8), model="path_traced", samples_per_pixel=1)
-    sig_l, B, is_point, lx, ly, lz, ax, sign, jump, out, hist = captured["sweep"]
-    rc, pt = captured["raycast"], captured["pathtrace"]
-    # kernel argument order: the scalar's arguments without the thread indices, then row0, row1
-    kargs = {"raycast": rc[:8] + rc[10:] + rc[8:10], "pathtrace": pt[:-5] + pt[-3:] + pt[-5:-3],
-             "sweep_layer": (sig_l, B, is_point, lx, ly, lz, ax, ax, ax, hist[0], out, hist[0], 0, 1)}
-    sigs = {name: (kc.grid_function(*kc.KERNELS[name]), tuple(numba.typeof(v) for v in kargs[name]))
-            for name in kargs}
+    for name, (mod, attr) in drivers.items():
+        def spy(*args, _name=name, _orig=getattr(mod, attr)):
+            captured.setdefault(_name, inspect.signature(_orig.py_func).bind(*args).arguments)
+            return _orig(*args)
+        setattr(mod, attr, spy)
+    vol, tf, _, _, cam = scenes.scene(SCENE, 12)
+    r = pa.Renderer(vol, transfer_function=tf, lights=[pa.PointLight((0, 0, 0.3), 3.0)], backend="cpu")
+    r.render(camera=cam, window_size=(8, 8), model="ambient_scattering", quality="preview", progress_bar=False)
+    r.render(camera=cam, window_size=(8, 8), model="path_traced", samples_per_pixel=1, progress_bar=False)
+    # a sweep kernel runs one layer k of axis a, reading the layer J back (prev) and writing cur
+    sweep = captured["sweep_layer"]
+    sweep.update(k=sweep["a"], J=sweep["a"], prev=sweep["hist"][0], cur=sweep["hist"][0])
     print(f"compiling the CUDA kernels to PTX for compute capability {cc[0]}.{cc[1]} (no GPU used)")
-    for name, (fn, sig) in sigs.items():
+    for name in drivers:
+        scalar, x_name, y_name, _ = kc.KERNELS[name]
+        # kernel arguments: the scalar's without the thread indices, then row0, row1
+        params = [p for p in inspect.signature(scalar.py_func).parameters if p not in (x_name, y_name)]
+        sig = tuple(numba.typeof(v) for v in [captured[name][p] for p in params] + [0, 1])
         t = time.perf_counter()
-        ptx, _ = cuda.compile_ptx(_jit._rebind(fn), sig, device=False, cc=cc)
+        ptx, _ = cuda.compile_ptx(getattr(kc, f"{name}_kernel").py_func, sig, device=False, cc=cc)
         print(f"  {name:12s} {len(ptx):8d} bytes of PTX in {time.perf_counter() - t:5.1f} s")
     return 0
 
@@ -145,6 +136,7 @@ def main(argv=None):
     p.add_argument("--spp", type=int, default=4, help="path tracer samples per pixel per frame")
     p.add_argument("--compile-only", action="store_true")
     p.add_argument("--cc", default="9.0", help="compute capability for --compile-only")
+    p.add_argument("--stages", action="store_true", help="also print each warm-up frame's stage timings")
     args = p.parse_args(argv)
     if args.compile_only:
         return compile_only(tuple(int(c) for c in args.cc.split(".")))
@@ -162,9 +154,9 @@ def main(argv=None):
     print(head)
     for case in args.cases:
         n, w = (int(x) for x in case.split(":"))
-        vol = make_volume(n)
+        scene = scenes.scene(SCENE, n)
         for model in args.models:
-            res = {b: measure(vol, (w, w), model, b, args.repeats, args.spp) for b in ("cuda", "cpu")}
+            res = {b: measure(scene, (w, w), model, b, args.repeats, args.spp) for b in ("cuda", "cpu")}
             g, c = res["cuda"], res["cpu"]
             diff = float(np.abs(g["image"] - c["image"]).max() / max(np.abs(c["image"]).max(), 1e-30))
             for b, m in (("gpu", g), ("cpu", c)):
@@ -175,6 +167,10 @@ def main(argv=None):
             ratio = " ".join(f"{c[k] / g[k]:8.3g}×" for k in ("first", "camera", "relight", "tf"))
             pr = f"{g['paths_per_s'] / c['paths_per_s']:9.3g}×" if "paths_per_s" in g else ""
             print(f"{'':10s} {'':20s} {'cpu/gpu':4s} {ratio} {pr}")
+            if args.stages:
+                for b, m in (("gpu", g), ("cpu", c)):
+                    print(f"{'':10s} {'':20s} {b:4s} warm-up frame's stages (s): "
+                          + ", ".join(f"{k} {v:.2f}" for k, v in m["stages"].items()))
     return 0
 
 

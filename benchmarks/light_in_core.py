@@ -1,9 +1,9 @@
 """A point light inside a dense medium (docs/path_tracer.rst, "Point lights inside the medium"): the
 path tracer with and without equiangular distance sampling, against a converged reference.
 
-Scene: the synthetic supernova (n³) with the trade benchmark's transfer function (albedo 0.9,
-isotropic phase), its point light at the centre of the dense core (radius ≈ 0.1 at the origin),
-the trade's camera. Next-event estimation from vertices next to a point light has unbounded
+Scene: ``light_in_core`` of benchmarks/scenes.py — the synthetic supernova (n³) with the trade
+benchmark's transfer function (albedo 0.9, isotropic phase), its point light (intensity 3) at the
+centre of the dense core (radius ≈ 0.1 at the origin), the trade's camera. Next-event estimation from vertices next to a point light has unbounded
 weights ``I/d²``: free-flight sampling alone leaves isolated pixels many times their value;
 equiangular sampling (combined with it by MIS) cancels the ``1/d²``.
 
@@ -38,17 +38,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import pv_ambient as pa  # noqa: E402
-from pv_ambient import datasets, metrics  # noqa: E402
+from pv_ambient import metrics  # noqa: E402
+
+import references as refs  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+import scenes  # noqa: E402
 
 WINDOW_HALF = 6  # 13×13 pixels around the light's projection
 
 
 def scene(n):
-    """(renderer, camera, lights): the supernova with its light at the centre of the dense core."""
-    grid = datasets.supernova(n=n)
-    tf = pa.TransferFunction(**datasets.suggested_style("supernova"), albedo=0.9)
-    lights = [pa.PointLight((0.0, 0.0, 0.0), intensity=3.0)]
-    cam = pa.Camera((0.0, -3.6, 0.6), (0, 0, 0), (0, 0, 1), view_angle=30)
+    """(renderer, camera, lights) of the registry's ``light_in_core`` scene."""
+    grid, tf, lights, _, cam = scenes.scene("light_in_core", n)
     return pa.Renderer(grid, transfer_function=tf, lights=lights), cam, lights
 
 
@@ -83,7 +83,7 @@ def main(argv=None):
     mask = metrics.light_mask(size[::-1], cam, size, lights, half=WINDOW_HALF)
     lum = ref.mean(axis=2)
     bright = mask & (lum >= 0.1 * lum[mask].mean())
-    noise = float(np.sqrt(np.mean(ref_se[mask] ** 2) / 16) / np.mean(ref[mask]))
+    noise = refs.block_noise(ref, ref_se, mask)
     print(f"supernova {args.n}³, {size[0]}x{size[1]}, point light (intensity 3) at the centre of the dense core,"
           f" albedo 0.9, isotropic; {pa.__version__}")
     print(f"reference: equiangular, {args.ref_spp} spp in {t_ref:.0f} s; 4x4-block noise {noise:.4f};"

@@ -5,7 +5,7 @@ Scenes (benchmarks/scenes.py; their one-line descriptions are printed with each)
 
 * ``trade`` — supernova, cloud, ct_phantom: the speed–accuracy trade's scenes, on which the
   models' defaults were chosen;
-* ``floor`` — smoke_plume, marschner_lobb, cloud_sun: diffusion_floor.py's out-of-sample scenes;
+* ``floor`` — smoke_plume, marschner_lobb, cloud_sun: the diffusion floor's out-of-sample scenes;
 * ``new`` — haze_backlit (thin, strongly forward-scattering haze lit from behind), dense_side
   (a dense, high-albedo object lit from the side), ct_coloured (the CT phantom under four
   coloured lights): out-of-sample scenes that nothing is chosen on. They were fixed before any
@@ -15,13 +15,12 @@ Scenes (benchmarks/scenes.py; their one-line descriptions are printed with each)
 For each scene, at 64×64 pixels and 64³ data points:
 
 * the ``path_traced`` reference: 4096 samples per pixel or 1 % relative standard error, whichever
-  comes first (seed 99, as diffusion_floor.py). Printed: its samples per pixel, time, relative
+  comes first (seed 99; benchmarks/references.py). Printed: its samples per pixel, time, relative
   error reached, 4×4-block noise (its standard error over 4×4 blocks, relative to the image
   mean: it must stay well below the errors it measures), image mean and the share of the
   light held by the brightest 1 % of the pixels (a well-exposed reference is not dominated by a
-  few pixels). References are cached in ``benchmarks/results/noise_free_refs/NAME.npz``, keyed by
-  the scene's optics, lights, camera, settings and the path tracer's source files; a key that
-  does not match (or ``--recompute-refs``) traces it again.
+  few pixels). References are cached (:func:`references.reference`); a key that does not match
+  (or ``--recompute-refs``) traces it again.
 * every noise-free model at its defaults (``quality="balanced"``): ``single_scattering``,
   ``ambient_scattering`` with ``propagation="beer_lambert"`` (its default) and ``"tube"``,
   ``diffusion`` plain, flux-limited and with 4, 6, 8 and 12 transport sweeps + flux limiting
@@ -62,10 +61,7 @@ command), with ``--scenes`` only to ``--out`` when given.
 from __future__ import annotations
 
 import argparse
-import hashlib
-import json
 import os
-import subprocess
 import sys
 import time
 import warnings
@@ -80,15 +76,10 @@ import pv_ambient as pa  # noqa: E402
 from pv_ambient import metrics  # noqa: E402
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
 
-import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
+import references as refs  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+import scenes as scene_registry  # noqa: E402
+from references import N, RESULTS, REF_ERROR, REF_SEED, REF_SPP, ROOT, SIZE  # noqa: E402
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-RESULTS = HERE / "results"
-REFS = RESULTS / "noise_free_refs"
-SIZE = (64, 64)
-N = 64
-REF_SPP, REF_ERROR, REF_SEED = 4096, 0.01, 99
 MOVES_DEG = (1.0, 2.0, 3.0)
 
 #: (label, model, options): every noise-free model at its defaults.
@@ -104,82 +95,6 @@ MODELS = (
        {"flux_limited": True, "sweep_orders": k}) for k in SWEEP_COUNTS),
     ("auto", "auto", {}),
 )
-
-#: The path tracer's sources (pv_ambient.stages.reference and what its kernel imports): part of
-#: the cached references' key.
-PATH_TRACER_SOURCES = ("stages/reference.py", "_kernels/pathtrace.py", "_kernels/tracking.py",
-                       "_kernels/equiangular.py", "_kernels/majorant.py", "_kernels/phase.py",
-                       "_kernels/geometry.py", "_kernels/raycast.py", "_kernels/rng.py", "_kernels/interp.py",
-                       "_kernels/medium.py", "_kernels/records.py", "_kernels/_jit.py")
-
-
-class Log:
-    """Print, and keep every line for the results file (rewritten after each line: a run cut short
-    still leaves what it measured)."""
-
-    def __init__(self, path, header):
-        self.path, self.lines = path, [header]
-        print(header, flush=True)
-
-    def __call__(self, line=""):
-        print(line, flush=True)
-        self.lines.append(line)
-        if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.path.write_text("\n".join(self.lines) + "\n")
-
-
-orbit = scene_registry.orbit  # the camera turned about its focal point (benchmarks/scenes.py)
-
-
-def ref_key(name, renderer, lights, g, cam, size, spp):
-    """Hash of what a reference depends on: the optics (data and TF), lights, phase, camera, the
-    reference's settings and the path tracer's sources."""
-    h = hashlib.sha256()
-    h.update(repr((name, renderer.optics.key, [lt.to_dict() for lt in lights], float(g), cam.to_dict(), size,
-                   tuple(renderer.geometry.spacing), tuple(renderer.bounds),
-                   spp, REF_ERROR, REF_SEED)).encode())
-    pkg = Path(pa.__file__).resolve().parent
-    for rel in PATH_TRACER_SOURCES:
-        h.update((pkg / rel).read_bytes())
-    return h.hexdigest()[:20]
-
-
-def reference(name, r, lights, g, cam, mask, recompute, size=SIZE, spp=REF_SPP, cache=True):
-    """The scene's reference radiance and its figures: cached (``cache``), or traced now."""
-    key = ref_key(name, r, lights, g, cam, size, spp)
-    path = REFS / f"{name}.npz"
-    if not cache:
-        why = "traced, not cached"
-    elif path.exists() and not recompute:
-        with np.load(path) as z:
-            info = json.loads(str(z["info"]))
-            if info.get("key") == key:
-                return z["radiance"].astype(np.float32), info, "cached"
-            why = "stale cache: recomputed"
-    else:
-        why = "recomputed" if path.exists() else "traced"
-    t = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # "target_error was not reached": the relative error is printed
-        ref = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=REF_SEED,
-                       samples_per_pixel=spp, target_error=REF_ERROR, progress_bar=False)
-    elapsed = time.perf_counter() - t
-    noise = float(np.sqrt(np.mean(ref.std_error[mask] ** 2) / 16) / np.mean(ref.radiance[mask]))
-    info = dict(key=key, spp=int(ref.metadata["spp"]), time=elapsed,
-                relative_error=float(ref.metadata["relative_error"]), block_noise=noise, commit=_commit())
-    if cache:
-        REFS.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(path, radiance=ref.radiance.astype(np.float32), info=json.dumps(info))
-    return ref.radiance, info, why
-
-
-def _commit():
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except Exception:  # noqa: BLE001 (no git: the key still identifies the reference)
-        return "?"
 
 
 def exposure(ref, mask):
@@ -200,7 +115,7 @@ def run_model(grid, tf, lights, g, cam, model, opts, share_from, size=SIZE):
         first = time.perf_counter() - t
         times = []
         for deg in MOVES_DEG:
-            c = orbit(cam, deg)
+            c = scene_registry.orbit(cam, deg)
             t = time.perf_counter()
             r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
             times.append(time.perf_counter() - t)
@@ -238,7 +153,7 @@ def fmt_max(values):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=None, choices=list(scene_registry.SCENES),
+    ap.add_argument("--scenes", nargs="+", default=None, choices=list(scene_registry.REFERENCED),
                     help="scenes to run (default: all nine)")
     ap.add_argument("--recompute-refs", action="store_true", help="trace every reference again")
     ap.add_argument("--refs-only", action="store_true",
@@ -252,12 +167,12 @@ def main(argv=None):
     args = ap.parse_args(argv)
     size = (args.size, args.size)
     default = args.n == N and size == SIZE and args.ref_spp == REF_SPP
-    names = list(scene_registry.SCENES) if args.scenes is None else list(dict.fromkeys(args.scenes))
+    names = list(scene_registry.REFERENCED) if args.scenes is None else list(dict.fromkeys(args.scenes))
     out = Path(args.out) if args.out else (RESULTS / "noise_free.txt" if args.scenes is None and default
                                            and not args.refs_only else None)
     shown = " ".join(sys.argv[1:] if argv is None else argv)
-    log = Log(out, f"python benchmarks/noise_free.py {shown}".rstrip())
-    log(f"pv_ambient at {_commit()}; {size[0]}×{size[1]} pixels, {args.n}³ data points; reference "
+    log = refs.Log(out, f"python benchmarks/noise_free.py {shown}".rstrip())
+    log(f"pv_ambient at {refs.commit()}; {size[0]}×{size[1]} pixels, {args.n}³ data points; reference "
         f"{args.ref_spp} spp or {REF_ERROR:.0%} relative error (seed {REF_SEED}); models at quality 'balanced'")
     warm_up(names[0])
     rows = []
@@ -265,7 +180,7 @@ def main(argv=None):
         grid, tf, lights, g, cam = scene_registry.scene(name, args.n)
         r = pa.Renderer(grid, transfer_function=tf, lights=lights)
         mask = metrics.light_mask(size[::-1], cam, size, lights)
-        ref, info, how = reference(name, r, lights, g, cam, mask, args.recompute_refs, size, args.ref_spp, default)
+        ref, info, how = refs.reference(name, r, lights, g, cam, mask, args.recompute_refs, size, args.ref_spp, default)
         mean, top = exposure(ref, mask)
         log(f"\n{name} [{scene_registry.group_of(name)}]: {scene_registry.DESCRIPTIONS[name]}")
         log(f"  reference ({how}): {info['spp']} spp in {info['time']:.1f} s (at {info['commit']}), relative error "

@@ -7,7 +7,7 @@ benchmarks/noise_free.py (4096 spp or 1 % relative error, seed 99; traced when t
 
 * the time unit: VTK's ``fixed_point`` emission–absorption frame of the same view, measured
   *interleaved* with the models: before each timed render, ``VTK_FRAMES`` VTK frames (the camera
-  turned by 0.5° and back in turn; benchmarks/speed.py's peer), and the render's time is divided
+  turned a little and back in turn; benchmarks/timing.py's peer), and the render's time is divided
   by their median; a model's time is the median of these ratios. The load of this shared
   machine drifts over seconds; one unit measured once per scene moved the ratios of the same
   render by up to 2.7× between runs. The printed VTK frame is the median of all of a scene's;
@@ -52,19 +52,18 @@ Writes ``benchmarks/results/progressive.txt`` (the table; first line the command
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
 import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
 import pv_ambient as pa
+import references as refs
 import scenes as scene_registry
 from pv_ambient import metrics
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
-from speed import VtkPeer
+from timing import VtkPeer
 
 SCENES = scene_registry.GROUPS["trade"] + scene_registry.GROUPS["floor"]
 BUDGETS = (3, 5, 10, 20, 50, 100)
@@ -91,29 +90,6 @@ def have_oidn() -> bool:
 VTK_FRAMES = 3
 
 
-class VTKClock:
-    """VTK's ``fixed_point`` emission–absorption render of the scene's view (benchmarks/speed.py's
-    peer), kept open so that its frames can be interleaved with the timed renders; the camera
-    alternates between the view and the view turned by 0.5° (VTK skips a render when nothing
-    changed). Every frame's time is kept for the scene's printed median."""
-
-    def __init__(self, grid, r, cam, size, step):
-        self.peer = VtkPeer(grid, r, size, step)
-        self.views = (cam, nf.orbit(cam, 0.5))
-        self.frames = []
-        self.unit(6)  # warm-up, not kept
-        self.frames = []
-
-    def unit(self, n=VTK_FRAMES):
-        """Median time of ``n`` VTK frames rendered now."""
-        times = [self.peer.frame(self.views[(len(self.frames) + i) % 2]) for i in range(n)]
-        self.frames += times
-        return float(np.median(times))
-
-    def close(self):
-        self.peer.close()
-
-
 def timed(r, cam, size, g, model, opts, repeats, clock):
     """The camera-move frame of ``model``: the scored render at ``cam`` (it warms the view-independent
     caches), then renders from ``repeats`` cameras orbited by 1°, 2°, … (a camera move: nothing
@@ -122,8 +98,8 @@ def timed(r, cam, size, g, model, opts, repeats, clock):
     res = r.render(camera=cam, window_size=size, model=model, phase=g, progress_bar=False, **opts)
     ratios = []
     for k in range(repeats):
-        c = nf.orbit(cam, 1.0 + k)
-        unit = clock.unit()
+        c = scene_registry.orbit(cam, 1.0 + k)
+        unit = clock.unit(cam, VTK_FRAMES)
         t = time.perf_counter()
         r.render(camera=c, window_size=size, model=model, phase=g, progress_bar=False, **opts)
         ratios.append((time.perf_counter() - t) / unit)
@@ -183,8 +159,9 @@ def run_scene(name, n, size, max_spp, repeats, log):
     grid, tf, lights, g, cam = scene_registry.scene(name, n)
     r = pa.Renderer(grid, transfer_function=tf, lights=lights)
     mask = metrics.light_mask(size[::-1], cam, size, lights)
-    ref, info, how = nf.reference(name, r, lights, g, cam, mask, False, size)
-    clock = VTKClock(grid, r, cam, size, r.default_step())
+    ref, info, how = refs.reference(name, r, lights, g, cam, mask, False, size)
+    # VTK's frames of the scene's view, interleaved with the timed renders (six warm-up frames)
+    clock = VtkPeer(grid, r, size, r.default_step(), camera=cam, warm_up=6)
     curves = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unconverged solves etc.: benchmarks/noise_free.py prints them
@@ -223,12 +200,12 @@ def run_scene(name, n, size, max_spp, repeats, log):
                                samples_per_pixel=max_spp, seed=1000 + max_spp, unbiased=True, **opts)
                 final[label + " (unbiased)"] = res
             curves[label] = pts
-    unit = float(np.median(clock.frames))
+    unit = clock.median()
     clock.close()
     log(f"\n{name}: {scene_registry.DESCRIPTIONS[name]}")
     log(f"  reference ({how}): {info['spp']} spp, relative error {info['relative_error']:.4f}, block noise "
-        f"{info['block_noise']:.4f}; VTK frame {unit * 1e3:.2f} ms (median of {len(clock.frames)}, "
-        f"{np.percentile(clock.frames, 10) * 1e3:.2f}–{np.percentile(clock.frames, 90) * 1e3:.2f} ms from the 10th "
+        f"{info['block_noise']:.4f}; VTK frame {unit * 1e3:.2f} ms (median of {len(clock.times)}, "
+        f"{np.percentile(clock.times, 10) * 1e3:.2f}–{np.percentile(clock.times, 90) * 1e3:.2f} ms from the 10th "
         "to the 90th percentile)")
     for label in final:
         res = final[label]
@@ -286,18 +263,15 @@ def plot(rows, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    refs.add_scene_options(ap, SCENES, "progressive")
     ap.add_argument("--max-spp", type=int, default=256)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--out", default=None, help="directory of progressive.txt/.png (default benchmarks/results)")
     args = ap.parse_args(argv)
-    out = Path(args.out) if args.out else nf.RESULTS
-    log = nf.Log(out / "progressive.txt", "python benchmarks/progressive.py " + " ".join(sys.argv[1:] if argv is None
-                                                                                          else argv))
-    log(f"pv_ambient at {nf._commit()}; {nf.SIZE[0]}×{nf.SIZE[1]} pixels, {nf.N}³ data points, quality 'balanced'; "
+    log = refs.results_log("progressive", args.out, argv)
+    log(f"pv_ambient at {refs.commit()}; {refs.SIZE[0]}×{refs.SIZE[1]} pixels, {refs.N}³ data points, quality 'balanced'; "
         f"denoised path tracer: {'measured' if have_oidn() else 'not measured (pyoidn not installed)'}")
     nf.warm_up(args.scenes[0])
-    rows = [run_scene(name, nf.N, nf.SIZE, args.max_spp, args.repeats, log) for name in args.scenes]
+    rows = [run_scene(name, refs.N, refs.SIZE, args.max_spp, args.repeats, log) for name in args.scenes]
     for which in PROGRESSIVE:
         if which not in rows[0]["ok"]:
             continue
@@ -312,7 +286,7 @@ def main(argv=None):
         every3 = [row["name"] for row in rows if all(row["ok3"][which])]
         log(f"  scene by scene, at every budget: {len(every)} of {len(rows)}" + (f" ({', '.join(every)})" if every else "")
             + f" [{len(every3)} of {len(rows)}" + (f": {', '.join(every3)}" if every3 else "") + "]")
-    plot(rows, out / "progressive.png")
+    plot(rows, log.path.with_suffix(".png"))
 
 
 if __name__ == "__main__":

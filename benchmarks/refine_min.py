@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-import noise_free as nf  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
 import pv_ambient as pa
+import references as refs  # (benchmarks/: the script's directory is on sys.path)
 import scenes as scene_registry
 from pv_ambient import metrics
 from pv_ambient.rendering.renderer import REFINE_MIN_SAMPLES
@@ -39,9 +39,9 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "refine_min.txt"))
     a = ap.parse_args(argv)
-    log = nf.Log(Path(a.out), "python benchmarks/refine_min.py"
+    log = refs.Log(Path(a.out), "python benchmarks/refine_min.py"
                  + "".join(f" {x}" for x in (argv if argv is not None else sys.argv[1:])))
-    log(f"pv_ambient at {nf._commit()}; 64×64 pixels, 64³ data points; the thresholded picture without a minimum "
+    log(f"pv_ambient at {refs.commit()}; 64×64 pixels, 64³ data points; the thresholded picture without a minimum "
         f"(the model's REFINE_MIN_SAMPLES = {REFINE_MIN_SAMPLES}) against its base, {a.seeds} seeds per count")
     size = (64, 64)
     warnings.simplefilter("ignore")
@@ -49,7 +49,7 @@ def main(argv=None):
         grid, tf, lights, g, cam = scene_registry.scene(name, 64)
         r = pa.Renderer(grid, transfer_function=tf, lights=lights)
         mask = metrics.light_mask(size[::-1], cam, size, lights)
-        ref, _, _ = nf.reference(name, r, lights, g, cam, mask, False, size)
+        ref, _, _ = refs.reference(name, r, lights, g, cam, mask, False, size)
         kw = dict(camera=cam, window_size=size, model="progressive", phase=g, progress_bar=False)
         base = r.render(samples_per_pixel=0, **kw).radiance.astype(np.float64)
         e0 = metrics.block_relative_rmse(base, ref, mask)

@@ -1,10 +1,11 @@
 """Scaling of ``render_series`` (issue 18): a time series on a LocalCluster against serial loops,
 and an orbit's frames against camera moves of one ``Renderer``.
 
-Scene: ``--frames`` time steps of the synthetic cloud at ``--n``³ (seeds 0, 1, …, written as .vti
-files into a temporary folder first; point array ``density``, ``suggested_style("cloud")``, albedo
-0.9), one point light of intensity 4 above the volume, camera from (0.4, −3.8, 1.0) looking at the
-centre, ``--size``² pixels, model ``--model`` (quality "balanced"), PNG written per frame.
+Scene: ``cloud_series`` of benchmarks/scenes.py — ``--frames`` time steps of the synthetic cloud at
+``--n``³ (seeds 0, 1, …, written as .vti files into a temporary folder first; point array
+``density``, ``suggested_style("cloud")``, albedo 0.9), one point light of intensity 4 above the
+volume, camera from (0.4, −3.8, 1.0) looking at the centre — ``--size``² pixels, model ``--model``
+(quality "balanced"), PNG written per frame.
 
 Rows:
 
@@ -52,29 +53,19 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-CAMERA = {"position": [0.4, -3.8, 1.0], "focal_point": [0.0, 0.0, 0.0], "view_up": [0.0, 0.0, 1.0],
-          "view_angle": 30.0}
-LIGHTS = [{"kind": "point", "position": [0.0, 0.5, 1.6], "intensity": [4.0, 4.0, 4.0]}]
-
-
-def transfer_function():
-    from pv_ambient import datasets
-
-    style = datasets.suggested_style("cloud")
-    return {"kind": "colormap", "cmap": style["cmap"], "clim": list(style["clim"]), "opacity": style["opacity"],
-            "density_scale": style["density_scale"], "albedo": 0.9}
-
+SCENE = "cloud_series"  # benchmarks/scenes.py
 
 #: The serial loop (rows a and b), run in a subprocess so that NUMBA_NUM_THREADS takes effect.
 LOOP = r"""
 import json, os, sys, time
 import numba, pyvista as pv
 import pv_ambient as pa
-from pv_ambient import datasets
 cfg = json.loads(sys.argv[1])
-kw = dict(transfer_function=cfg["tf"], lights=cfg["lights"], camera=cfg["camera"], model=cfg["model"],
-          window_size=(cfg["size"], cfg["size"]))
-pa.render(datasets.cloud(n=16), **{**kw, "window_size": (16, 16)})   # warm-up: load the compiled kernels
+sys.path.insert(0, cfg["benchmarks"])
+import scenes
+small, tf, lights, _, camera = scenes.scene(cfg["scene"], 16)
+kw = dict(transfer_function=tf, lights=lights, camera=camera, model=cfg["model"], window_size=(cfg["size"], cfg["size"]))
+pa.render(small, **{**kw, "window_size": (16, 16)})   # warm-up: load the compiled kernels
 if cfg.get("start_at"):   # row (d): the concurrent loops start together
     time.sleep(max(0.0, cfg["start_at"] - time.time()))
 t = time.perf_counter()
@@ -132,7 +123,7 @@ def main(argv=None):
     from distributed import Client, LocalCluster
 
     import pv_ambient as pa
-    from pv_ambient import datasets
+    import scenes
 
     lines = [f"$ python benchmarks/series.py {' '.join(sys.argv[1:] if argv is None else argv)}", ""]
 
@@ -145,12 +136,12 @@ def main(argv=None):
     for s in range(args.frames):
         p = tmp / "steps" / f"step_{s:03d}.vti"
         p.parent.mkdir(parents=True, exist_ok=True)
-        datasets.cloud(n=args.n, seed=s).save(p)
+        scenes.scene(SCENE, args.n, step=s)[0].save(p)
         files.append(str(p))
-    tf = transfer_function()
-    kw = dict(transfer_function=tf, lights=LIGHTS, camera=CAMERA, model=args.model,
+    _, tf, lights, _, camera = scenes.scene(SCENE, 16)
+    kw = dict(transfer_function=tf, lights=lights, camera=camera, model=args.model,
               window_size=(args.size, args.size))
-    cfg = {"tf": tf, "lights": LIGHTS, "camera": CAMERA, "model": args.model, "size": args.size, "files": files,
+    cfg = {"benchmarks": str(HERE), "scene": SCENE, "model": args.model, "size": args.size, "files": files,
            "exposure": EXPOSURE}
     say(f"cloud {args.n}³ × {args.frames} time steps (.vti, {os.path.getsize(files[0]) / 2**20:.1f} MB each), "
         f"{args.model}, {args.size}x{args.size}, one point light; read + render + PNG per frame; "
@@ -181,7 +172,7 @@ def main(argv=None):
         cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
     client = Client(cluster)
     try:
-        warm = [datasets.cloud(n=16, seed=s) for s in range(2 * args.workers)]
+        warm = [scenes.scene(SCENE, 16, step=s)[0] for s in range(2 * args.workers)]
         pa.render_series(warm, out_dir=tmp / "warm", client=client, numba_threads=1, progress_bar=False,
                          **{**kw, "window_size": (16, 16)})
         t = time.perf_counter()
@@ -192,7 +183,7 @@ def main(argv=None):
         rows["c"] = (args.frames / wall, wall, f"render_series, LocalCluster {args.workers} workers × 1 thread "
                                                "(started, warm)", float(np.median([f.times["classify"] + f.times["render"] for f in res.frames])))
         # the orbit on the warm cluster
-        cams = pa.orbit(None, args.frames, elevation=20.0, start=pa.Camera(**CAMERA))
+        cams = pa.orbit(None, args.frames, elevation=20.0, start=camera)
         okw = {k: v for k, v in kw.items() if k != "camera"}
         orb = pa.render_series(files[0], cameras=cams, out_dir=tmp / "orbit", client=client, numba_threads=1,
                                progress_bar=False, **okw)
@@ -236,7 +227,7 @@ def main(argv=None):
     try:
         import pyvista as pv
 
-        rend = pa.Renderer(pv.read(files[0]), transfer_function=tf, lights=LIGHTS)
+        rend = pa.Renderer(pv.read(files[0]), transfer_function=tf, lights=lights)
         rkw = {"model": args.model, "window_size": (args.size, args.size)}
         rend.render(camera=cams[0], **rkw)  # caches warm
         moves = []

@@ -1,10 +1,10 @@
 """Speed (issue 16): every kind of frame against VTK's ``fixed_point`` emission–absorption frame,
 measured interleaved in one process, plus our cost per marched sample.
 
-Scene: the synthetic supernova at ``--n``³ (point array ``density``, ``suggested_style`` with albedo
-0.9), one point light of intensity 4 at the centre (0, 0, 0), camera from (0, −3.6, 0.6) looking at
-the centre (view angle 30°), ``--size``² pixels, half-voxel step (``Renderer.default_step()``,
-quality "balanced"). Rows (the issue's table):
+Scene: ``supernova_centre`` of benchmarks/scenes.py at ``--n``³ (the synthetic supernova, its
+``suggested_style`` with albedo 0.9, one point light of intensity 4 at the centre, camera from
+(0, −3.6, 0.6) looking at the centre, view angle 30°), ``--size``² pixels, half-voxel step
+(``Renderer.default_step()``, quality "balanced"). Rows (the issue's table):
 
 * camera move — EA, single scattering (SS), ambient scattering (AS, Beer–Lambert), diffusion: every
   cache warm, the camera turned by 1° per frame (only the ray cast runs);
@@ -15,9 +15,10 @@ quality "balanced"). Rows (the issue's table):
 * first frame — SS, AS, diffusion: a new ``Renderer`` (classification included) and its first frame,
   table slices shared as above; Numba compiled beforehand (the warm-up frame).
 
-Every row alternates one VTK ``fixed_point`` frame (same TF, camera and step; the VTK camera changes
-a little every frame, or VTK would not re-render) and one frame of ours in the same loop: after a
-warm-up pair, ``--repeats`` pairs (≥ 5), and each side's median. VTK's frame time drifts by several×
+Every row alternates one VTK ``fixed_point`` frame (benchmarks/timing.py's peer: same TF, camera and
+step; a camera that does not move is turned a little every other frame, or VTK would not re-render)
+and one frame of ours in the same loop: after a warm-up pair, ``--repeats`` pairs (≥ 5), and each
+side's median. VTK's frame time drifts by several×
 on a shared machine, hence the interleaving and the printed VTK time per row. Printed per row: our
 median, VTK's median, the ratio, the issue's target ratio, whether it is met, and for the camera moves
 the cost in ns per marched sample per thread = time × threads / samples, where ``samples`` are the ray
@@ -62,16 +63,18 @@ import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient._kernels import records as K  # noqa: E402
-from pv_ambient import datasets  # noqa: E402
 from pv_ambient._kernels.geometry import camera_ray, ray_box  # noqa: E402
 from pv_ambient._kernels.majorant import block_at, block_span  # noqa: E402
 from pv_ambient._kernels.medium import MODE_GRID  # noqa: E402
 from pv_ambient._kernels.raycast import index_ray, medium_sigma_color  # noqa: E402
+from pv_ambient.inputs.transfer import COL_COLOR, COL_SIGMA  # noqa: E402
 from pv_ambient.rendering.presets import MAJORANT_BLOCK  # noqa: E402
 
+import scenes  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+from timing import VtkPeer, interleaved  # noqa: E402
+
 ERT = 1e-5  # the renderer's default early termination
-LIGHT_INTENSITY = 4.0
-ALBEDO = 0.9
+SCENE = "supernova_centre"  # benchmarks/scenes.py
 MODELS = {"EA": "emission_absorption", "SS": "single_scattering", "AS": "ambient_scattering",
           "diffusion": "diffusion"}
 
@@ -90,137 +93,63 @@ ROWS = [
 ]
 
 
-# --- the scene ------------------------------------------------------------------------------
-
-def base_camera():
-    return pa.Camera((0.0, -3.6, 0.6), (0, 0, 0), (0, 0, 1), view_angle=30)
-
-
-def turned(cam, degrees):
-    """``cam`` turned by ``degrees`` of azimuth about its focal point (VTK's ``Azimuth``; where vtk is
-    not installed — the thread-scaling children on a machine without it — the same rotation about the
-    view-up axis through the focal point in NumPy)."""
-    try:
-        c = cam.to_vtk()
-    except ImportError:
-        f = np.asarray(cam.focal_point, float)
-        u = np.asarray(cam.view_up, float)
-        u = u / np.linalg.norm(u)
-        a = np.radians(float(degrees))
-        v = np.asarray(cam.position, float) - f
-        v = v * np.cos(a) + np.cross(u, v) * np.sin(a) + u * np.dot(u, v) * (1.0 - np.cos(a))
-        return pa.Camera(tuple(f + v), cam.focal_point, cam.view_up, view_angle=cam.view_angle)
-    c.Azimuth(float(degrees))
-    return pa.Camera.from_vtk(c)
-
-
-def supernova_grid(n):
-    """The supernova at n³ as ``pyvista.ImageData``, or, where pyvista is not installed, as the array
-    core's :class:`~pv_ambient.inputs.grid.Volume` with the same samples and placement."""
-    try:
-        return datasets.supernova(n=n)
-    except ImportError:
-        import datasets_synthetic
-        from pv_ambient.inputs.grid import Volume
-
-        v = datasets_synthetic.load("supernova", n=n)
-        return Volume({v.scalars_name: v.values}, spacing=v.spacing, origin=v.origin)
-
+# --- the scene: benchmarks/scenes.py's supernova_centre ----------------------------------------
 
 #: Environment variable naming an .npz of the supernova TF's nodes (``--tf-nodes``): the TF is then
 #: built from them by ``TransferFunction.from_table`` — the same lookup table, without pyvista.
 TF_NODES_ENV = "PV_AMBIENT_SPEED_TF_NODES"
 
 
-def transfer_function(density_factor=1.0, clim=None):
-    style = datasets.suggested_style("supernova")
+def transfer_function(density=1.0, clim=None):
+    """The scene's transfer function, its density scale × ``density`` (and its colour and opacity
+    range ``clim`` when given); from the ``--tf-nodes`` table where that is set."""
     nodes = os.environ.get(TF_NODES_ENV)
     if nodes and clim is None:
         d = np.load(nodes)
-        scale = style["density_scale"] * density_factor / float(d["density_scale"])
-        return pa.TransferFunction.from_table(d["values"], sigma_t=d["sigma_t"] * scale, color=d["color"],
-                                              albedo=ALBEDO)
-    style = {**style, "density_scale": style["density_scale"] * density_factor, "clim": clim or style["clim"]}
-    return pa.TransferFunction(**style, albedo=ALBEDO)
+        return pa.TransferFunction.from_table(d["values"], sigma_t=d["sigma_t"] * density, color=d["color"],
+                                              albedo=float(d["albedo"]))
+    return scenes.supernova_tf(density, clim)
 
 
 def write_tf_nodes(path):
-    """Write the supernova TF's nodes (scalar values, σt at the style's density scale, colour) —
-    read off VTK's lookup table, so pyvista is needed here, not where the file is read."""
-    tf = transfer_function()
-    grid = datasets.supernova(n=16)
-    s32 = np.asarray(grid.active_scalars, np.float32)
-    values, sig, col = tf._colormap_nodes(None, s32, np.isfinite(s32))
-    np.savez(path, values=values, sigma_t=sig, color=col,
-             density_scale=datasets.suggested_style("supernova")["density_scale"])
+    """Write the supernova TF's lookup table as nodes (scalar values, σt, colour, albedo): one node
+    per table entry, so ``TransferFunction.from_table`` rebuilds the same table. Resolving the TF
+    needs pyvista here, not where the file is read."""
+    grid, tf, *_ = scenes.scene(SCENE, 16)
+    optics = tf.resolve(grid)
+    n = optics.table.shape[0]
+    values = optics.lut_lo + np.arange(n) / optics.lut_inv
+    np.savez(path, values=values, sigma_t=optics.table[:, COL_SIGMA], color=optics.table[:, COL_COLOR:COL_COLOR + 3],
+             albedo=tf.albedo)
 
 
-def light_at(x):
-    return pa.PointLight((float(x), 0.0, 0.0), intensity=LIGHT_INTENSITY)
-
-
-# --- VTK, the peer --------------------------------------------------------------------------
-
-class VtkPeer:
-    """VTK's ``fixed_point`` EA render of the renderer's TF, one frame per :meth:`frame`."""
-
-    def __init__(self, grid, renderer, size, step):
-        import pyvista as pv
-
-        from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
-
-        self.plotter = pv.Plotter(off_screen=True, window_size=size)
-        add_vtk_volume(self.plotter, grid, renderer, step=step, mapper="fixed_point")
-
-    def frame(self, camera):
-        """Wall time of one render from ``camera`` (which must differ from the last one's)."""
-        pl = self.plotter
-        camera.to_vtk(pl.camera)
-        pl.renderer.ResetCameraClippingRange()
-        t = time.perf_counter()
-        pl.ren_win.Render()
-        return time.perf_counter() - t
-
-    def close(self):
-        self.plotter.close()
-
-
-def interleaved(vtk, ours, vtk_camera, repeats):
-    """Medians (ours, VTK) over ``repeats`` pairs after a warm-up pair: per k, one VTK frame from
-    ``vtk_camera(k)``, then ``ours(k)`` (timed here). ``vtk`` None: ours only (VTK's median nan)."""
-    mine, theirs = [], []
-    for k in range(repeats + 1):
-        tv = vtk.frame(vtk_camera(k)) if vtk is not None else float("nan")
-        t = time.perf_counter()
-        ours(k)
-        to = time.perf_counter() - t
-        if k:
-            mine.append(to)
-            theirs.append(tv)
-    return float(np.median(mine)), float(np.median(theirs))
+def light_at(x, light):
+    """``light`` moved to (x, 0, 0)."""
+    return pa.PointLight((float(x), 0.0, 0.0), intensity=light.intensity)
 
 
 # --- what each row times ---------------------------------------------------------------------
 
 class Frames:
-    """The frame functions of each kind of row, ``fn(k)`` for frame k, and the VTK camera of each."""
+    """The frame functions of each kind of row, ``fn(k)`` for frame k, and the VTK camera of each;
+    ``options``: further render options of every frame (e.g. ``propagation``)."""
 
-    def __init__(self, grid, size, step):
-        self.grid, self.size, self.step = grid, size, step
-        self.cam = base_camera()
-        self.renderer = pa.Renderer(grid, backend="cpu", transfer_function=transfer_function(), lights=[light_at(0.0)])
+    def __init__(self, n, size, options=None):
+        self.grid, _, lights, _, self.cam = scenes.scene(SCENE, n)
+        self.light = lights[0]
+        self.size, self.options = size, dict(options or {})
+        self.renderer = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(), lights=lights)
+        self.step = self.renderer.default_step()
         self.moves = 0  # every relight goes to a position never used before (no cached volume)
 
     def render(self, renderer, model, camera):
-        return renderer.render(camera=camera, window_size=self.size, model=MODELS[model], step=self.step)
+        return renderer.render(camera=camera, window_size=self.size, model=MODELS[model], step=self.step,
+                               **self.options)
 
     def camera_of(self, kind, k):
-        """The camera of frame k of a row: turned 1° per frame for a camera move, else fixed."""
-        return turned(self.cam, k) if kind == "camera" else self.cam
-
-    def vtk_camera_of(self, kind, k):
-        """VTK's camera: ours for a camera move; else ours turned by a tiny, changing angle."""
-        return turned(self.cam, k) if kind == "camera" else turned(self.cam, 0.05 * (k % 2))
+        """The camera of frame k of a row: turned 1° per frame for a camera move, else fixed (VTK's
+        peer then turns it a little every other frame: it does not render an unchanged view)."""
+        return scenes.orbit(self.cam, k) if kind == "camera" else self.cam
 
     def frame_fn(self, kind, model):
         r = self.renderer
@@ -229,22 +158,20 @@ class Frames:
         if kind == "relight":
             def relight(k):
                 self.moves += 1
-                r.set_lights([light_at(0.02 * self.moves)])
+                r.set_lights([light_at(0.02 * self.moves, self.light)])
                 self.render(r, model, self.cam)
             return relight
         if kind == "tf":
             def tf_change(k):
                 self.moves += 1
-                r2 = pa.Renderer(self.grid, backend="cpu",
-                                 transfer_function=transfer_function(1.0 + 0.02 * self.moves),
-                                 lights=[light_at(0.0)])
+                r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(1.0 + 0.02 * self.moves),
+                                 lights=[self.light])
                 r2.cache.share(r.cache)  # the preintegrated table slices: the disk cache's role
                 self.render(r2, model, self.cam)
             return tf_change
         if kind == "first":
             def first(k):
-                r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(),
-                                 lights=[light_at(0.0)])
+                r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(), lights=[self.light])
                 r2.cache.share(r.cache)
                 self.render(r2, model, self.cam)
             return first
@@ -384,7 +311,7 @@ def check_count(n=48, size=(48, 40)):
     then terminate early) and its colour/opacity range starting at 0.15 (empty blocks to skip)."""
     lines = [f"sample-count check (supernova n={n}, {size[0]}x{size[1]}; numba count vs NumPy brute force,"
              f" and the count's 1 − T vs the EA ray cast's alpha):"]
-    grid = datasets.supernova(n=n)
+    grid, _, _, _, base = scenes.scene(SCENE, n)
     cases = {"as is": transfer_function(), "density ×30": transfer_function(30.0),
              "clim (0.15, 1)": transfer_function(clim=(0.15, 1.0))}
     for name, tf in cases.items():
@@ -393,7 +320,7 @@ def check_count(n=48, size=(48, 40)):
         maj = r.majorant()
         lines.append(f"  TF {name}: {int((maj <= 0).sum())} of {maj.size} majorant blocks empty")
         for deg in (0.0, 37.0, 101.0):
-            cam = turned(base_camera(), deg)
+            cam = scenes.orbit(base, deg)
             c_numba, T_numba = sample_counts(r, cam, size, step)
             c_numpy, _ = brute_force_count(r, cam, size, step)
             alpha = r.render(camera=cam, window_size=size, step=step).alpha
@@ -407,16 +334,18 @@ def check_count(n=48, size=(48, 40)):
 
 # --- the table ----------------------------------------------------------------------------------
 
-def measure_rows(frames, vtk, repeats, kinds=None):
-    """Dicts per row: ours, VTK, samples (camera moves; nan otherwise)."""
+def measure_rows(frames, vtk, repeats, kinds=None, models=None, count=True):
+    """Dicts per row (of ``kinds`` and ``models`` when given): ours, VTK, samples (camera moves when
+    ``count``; nan otherwise). Each row interleaves ``vtk``'s frames (benchmarks/timing.py) from the
+    row's cameras with ours."""
     out = []
     threads = numba.get_num_threads()
     for name, kind, model, target in ROWS:
-        if kinds and kind not in kinds:
+        if (kinds and kind not in kinds) or (models and model not in models):
             continue
-        ours, theirs = interleaved(vtk, frames.frame_fn(kind, model), lambda k: frames.vtk_camera_of(kind, k), repeats)
+        ours, theirs = interleaved(vtk, frames.frame_fn(kind, model), lambda k: frames.camera_of(kind, k), repeats)
         samples = float("nan")
-        if kind == "camera":
+        if kind == "camera" and count:
             samples = float(np.mean([sample_counts(frames.renderer, frames.camera_of(kind, k), frames.size,
                                                    frames.step)[0].sum() for k in range(1, repeats + 1)]))
         out.append(dict(row=name, kind=kind, model=model, target=target, ours=ours, vtk=theirs, samples=samples,
@@ -502,14 +431,15 @@ def memory_child(n, size):
     """Peak RSS growth of rendering AS with two lights at n³ (JSON): the grid is loaded (its synthesis
     has a peak of its own, not the renderer's) and the kernels compiled on a small scene, then the
     peak is restarted, then a Renderer renders its first frame."""
-    lights = [light_at(0.0), light_at(0.4)]
-    grid = datasets.supernova(n=n)
-    small = pa.Renderer(datasets.supernova(n=24), transfer_function=transfer_function(), lights=lights)
-    small.render(camera=base_camera(), window_size=(32, 32), model="ambient_scattering")
+    small, _, (light,), _, cam = scenes.scene(SCENE, 24)
+    lights = [light, light_at(0.4, light)]
+    grid = scenes.scene(SCENE, n)[0]
+    small = pa.Renderer(small, transfer_function=transfer_function(), lights=lights)
+    small.render(camera=cam, window_size=(32, 32), model="ambient_scattering")
     reset = reset_peak_rss()
     base = peak_rss()
     r = pa.Renderer(grid, transfer_function=transfer_function(), lights=lights)
-    r.render(camera=base_camera(), window_size=size, model="ambient_scattering")
+    r.render(camera=cam, window_size=size, model="ambient_scattering")
     print(json.dumps(dict(base=base, peak=peak_rss(), volume=n ** 3 * 4, reset=reset)))
 
 
@@ -591,11 +521,9 @@ def command_line():
     return "$ python " + " ".join(sys.argv)
 
 
-def make_frames(n, size):
-    """The rows' :class:`Frames` on the supernova at n³, half-voxel step."""
-    frames = Frames(supernova_grid(n), size, None)
-    frames.step = frames.renderer.default_step()
-    return frames
+def make_frames(n, size, options=None):
+    """The rows' :class:`Frames` on the scene at n³, half-voxel step."""
+    return Frames(n, size, options)
 
 
 def write_result(args, name, lines):
@@ -657,9 +585,8 @@ def main(argv=None):
     rows = measure_rows(frames, vtk, args.repeats)
     vtk.close()
     threads = numba.get_num_threads()
-    table = [f"supernova {args.n}³, {size[0]}x{size[1]}, one point light (intensity {LIGHT_INTENSITY:g})"
-             " at the centre, "
-             f"albedo {ALBEDO}, step {frames.step:.5f} (half a voxel), early termination {ERT:g}; "
+    table = [f"{SCENE} {args.n}³ ({scenes.DESCRIPTIONS[SCENE]}), {size[0]}x{size[1]}, "
+             f"step {frames.step:.5f} (half a voxel), early termination {ERT:g}; "
              f"{threads} Numba threads; VTK fixed_point EA interleaved frame by frame; medians of {args.repeats}"
              f" after a warm-up pair", ""]
     table += format_table(rows)

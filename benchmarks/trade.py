@@ -43,33 +43,24 @@ import pv_ambient as pa  # noqa: E402
 from pv_ambient import metrics  # noqa: E402
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
 
-import scenes as scene_registry  # noqa: E402  (benchmarks/scenes.py: the script's directory is on sys.path)
+import references as refs  # noqa: E402  (benchmarks/: the script's directory is on sys.path)
+import scenes as scene_registry  # noqa: E402
+from timing import VtkPeer  # noqa: E402
+
+REF_SEED = 12345  # the references' seed (baked.py traces the same references)
 
 
 def scenes(n):
-    """(name, grid, transfer function, lights, phase, camera) of the trade's scenes (benchmarks/scenes.py)."""
-    return [(name, *scene_registry.scene(name, n)) for name in scene_registry.GROUPS["trade"]]
+    """(name, grid, transfer function, lights, phase, camera) of the trade's scenes (benchmarks/scenes.py;
+    the name benchmarks/identity.py imports)."""
+    return scene_registry.of_group("trade", n)
 
 
 def vtk_time(grid, r, cam, size, step, repeats):
-    import pyvista as pv
-
-    from pv_ambient.pyvista.vtk_bridge import add_vtk_volume
-
-    pl = pv.Plotter(off_screen=True, window_size=size)
-    add_vtk_volume(pl, grid, r, step=step, mapper="fixed_point")
-    cam.to_vtk(pl.camera)
-    pl.renderer.ResetCameraClippingRange()
-    pl.render()
-    times = []
-    for _ in range(repeats):
-        pl.camera.Azimuth(0.5)  # VTK skips a render when nothing changed
-        pl.renderer.ResetCameraClippingRange()
-        t = time.perf_counter()
-        pl.ren_win.Render()
-        times.append(time.perf_counter() - t)
-    pl.close()
-    return float(np.median(times))
+    """The time unit: the median of ``repeats`` VTK frames of the scene's view after a warm-up frame
+    (benchmarks/timing.py's peer)."""
+    with VtkPeer(grid, r, size, step, camera=cam) as vtk:
+        return vtk.unit(cam, repeats)
 
 
 def configurations(quick):
@@ -90,12 +81,18 @@ def configurations(quick):
     return cfg
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def reference_options(ap):
+    """The trade's image size, volume size and reference settings as options of ``ap`` (baked.py
+    scores against the same references)."""
     ap.add_argument("--size", type=int, default=96)
     ap.add_argument("--n", type=int, default=64)
     ap.add_argument("--ref-error", type=float, default=0.01)
     ap.add_argument("--ref-max-spp", type=int, default=8192)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    reference_options(ap)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--scenes", nargs="+", default=None)
     ap.add_argument("--quick", action="store_true", help="fewer configurations")
@@ -113,13 +110,8 @@ def main(argv=None):
         r = pa.Renderer(grid, transfer_function=tf, lights=lights)
         step = r.default_step()
         t_vtk = vtk_time(grid, r, cam, size, step, args.repeats)
-        t0 = time.perf_counter()
-        ref = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=12345,
-                       samples_per_pixel=args.ref_max_spp, target_error=args.ref_error)
-        t_ref = time.perf_counter() - t0
-        mask = metrics.light_mask(size[::-1], cam, size, lights)
-        # block noise of the reference: its standard error averaged over 4x4 blocks, relative
-        ref_block_noise = float(np.sqrt(np.mean(ref.std_error[mask] ** 2) / 16) / np.mean(ref.radiance[mask]))
+        ref, mask, ref_block_noise, t_ref = refs.trace(r, cam, size, g, lights, seed=REF_SEED,
+                                                       spp=args.ref_max_spp, target_error=args.ref_error)
         print(f"\n{name}: reference {ref.metadata['spp']} spp in {t_ref:.1f} s, block noise {ref_block_noise:.4f};"
               f" VTK fixed_point EA frame {t_vtk * 1e3:.1f} ms")
         print(f"  {'model':20s} {'preset':18s} {'first/VTK':>9} {'move/VTK':>9} {'blockRMSE':>9} {'pixRMSE':>8}"
@@ -141,39 +133,29 @@ def main(argv=None):
             return dict(bias_seeds=float(b.mean()), bias_se=float(b.std(ddof=1) / np.sqrt(b.size)),
                         within_3pct=float(np.mean(np.abs(b) <= 0.03)))
 
-        # path tracer curve (no denoiser), each point its own seed
-        pt = []
-        spp = 1
-        while spp <= 256:
+        def pt_row(spp, **kw):
+            """The path tracer at ``spp`` (each repeat its own seed): its row, and its (time, block error)."""
             times = []
             for k in range(args.repeats):
                 t = time.perf_counter()
                 res = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=k + 1,
-                               samples_per_pixel=spp)
+                               samples_per_pixel=spp, **kw)
                 times.append(time.perf_counter() - t)
             tm = float(np.median(times))
             sc = score(res.radiance)
-            pt.append((tm, sc[0]))
-            rows.append(dict(scene=name, model="path_traced", preset=f"{spp} spp", first=tm / t_vtk, move=tm / t_vtk,
-                             block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2], ssim=sc[3], pt_same=tm / t_vtk,
-                             **seed_bias(spp)))
-            spp *= 2
+            rows.append(dict(scene=name, model="path_traced+denoise" if kw else "path_traced", preset=f"{spp} spp",
+                             first=tm / t_vtk, move=tm / t_vtk, block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2],
+                             ssim=sc[3], pt_same=float("nan") if kw else tm / t_vtk, **seed_bias(spp, **kw)))
+            return tm, sc[0]
+
+        # path tracer curve (no denoiser), 1, 2, 4, … 256 spp
+        pt = [pt_row(2 ** i) for i in range(9)]
 
         from pv_ambient.stages.denoise import available
 
         if available():  # path tracing + OIDN (the optional extra "denoise")
             for spp in (1, 2, 4, 16, 64):
-                times = []
-                for k in range(args.repeats):
-                    t = time.perf_counter()
-                    res = r.render(camera=cam, window_size=size, model="path_traced", phase=g, seed=k + 1,
-                                   samples_per_pixel=spp, denoise=True)
-                    times.append(time.perf_counter() - t)
-                tm = float(np.median(times))
-                sc = score(res.radiance)
-                rows.append(dict(scene=name, model="path_traced+denoise", preset=f"{spp} spp", first=tm / t_vtk,
-                                 move=tm / t_vtk, block_rmse=sc[0], pixel_rmse=sc[1], bias=sc[2], ssim=sc[3],
-                                 pt_same=float("nan"), **seed_bias(spp, denoise=True)))
+                pt_row(spp, denoise=True)
         else:
             print("  (pyoidn not installed: no denoised path-tracing curve; pip install 'pv_ambient[denoise]')")
 

@@ -40,9 +40,10 @@ def _in_image(cam, point, size=(64, 64)):
     return 0 <= u <= size[0] and 0 <= v <= size[1]
 
 
-def test_nine_scenes_in_three_groups():
-    assert len(scenes.SCENES) == 9
+def test_nine_referenced_scenes_in_three_groups_and_four_more():
+    assert len(scenes.REFERENCED) == 9 and len(scenes.SCENES) == 13
     assert sorted(sum(scenes.GROUPS.values(), ())) == sorted(scenes.SCENES)
+    assert scenes.REFERENCED == scenes.GROUPS["trade"] + scenes.GROUPS["floor"] + scenes.GROUPS["new"]
     assert scenes.NEW == ("haze_backlit", "dense_side", "ct_coloured")
     with pytest.raises(ValueError, match="unknown scene"):
         scenes.scene("teapot")
@@ -51,10 +52,10 @@ def test_nine_scenes_in_three_groups():
 @pytest.mark.parametrize("name", list(scenes.SCENES))
 def test_each_scene_gives_what_the_benchmarks_need(name):
     grid, tf, lights, g, cam = scenes.scene(name, N)
-    assert grid.dimensions == (N, N, N)
     assert isinstance(tf, pa.TransferFunction) and isinstance(cam, Camera)
     assert len(lights) >= 1 and -1 < g < 1
     r = pa.Renderer(grid, transfer_function=tf, lights=lights)
+    assert r.geometry.shape == (N, N, N)
     assert r.optics.has_scattering
     desc = scenes.DESCRIPTIONS[name]
     assert desc and "\n" not in desc
@@ -66,12 +67,34 @@ def test_each_scene_gives_what_the_benchmarks_need(name):
 def test_trade_takes_its_scenes_from_the_registry():
     import trade
 
-    got = trade.scenes(N)
+    got = trade.scenes(N)  # the name benchmarks/identity.py imports
     assert [s[0] for s in got] == list(scenes.GROUPS["trade"])
     for name, grid, tf, lights, g, cam in got:
         ref = scenes.scene(name, N)
         assert np.array_equal(grid.active_scalars, ref[0].active_scalars) and lights == ref[2] and g == ref[3]
         assert cam.to_dict() == ref[4].to_dict()
+
+
+def test_the_timing_scenes_vary_as_their_benchmarks_ask():
+    """The TF-change rows scale the density; the time series steps the cloud's noise; the GPU scene
+    needs neither pyvista nor a colour map (a table TF on the array core's Volume)."""
+    from pv_ambient.inputs.grid import Volume
+
+    grid = scenes.scene("supernova_centre", N)[0]
+    base, scaled = (pa.Renderer(grid, transfer_function=scenes.scene("supernova_centre", N, density=d)[1])
+                    for d in (1.0, 2.0))
+    np.testing.assert_allclose(scaled.optics.sigma_grid(), 2.0 * base.optics.sigma_grid(), rtol=1e-6)
+    steps = [scenes.scene("cloud_series", N, step=s)[0].active_scalars for s in (0, 1)]
+    assert not np.array_equal(*steps)
+    grid, tf, *_ = scenes.scene("supernova_table", N)
+    assert isinstance(grid, Volume) and tf.kind == "table"
+    # the speed scene and the light-in-core scene are the trade's supernova with the light moved
+    trade = scenes.scene("supernova", N)
+    for name, intensity in (("supernova_centre", 4.0), ("light_in_core", 3.0)):
+        grid, tf, (light,), g, cam = scenes.scene(name, N)
+        assert np.array_equal(grid.active_scalars, trade[0].active_scalars) and g == trade[3]
+        assert cam.to_dict() == trade[4].to_dict()
+        assert light.position == (0.0, 0.0, 0.0) and light.intensity == (intensity,) * 3
 
 
 def test_haze_backlit_is_thin_forward_scattering_and_lit_from_behind():
