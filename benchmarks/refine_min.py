@@ -26,7 +26,7 @@ import pv_ambient as pa
 import references as refs  # (benchmarks/: the script's directory is on sys.path)
 import scenes as scene_registry
 from pv_ambient import metrics
-from pv_ambient.rendering.renderer import REFINE_MIN_SAMPLES
+from pv_ambient.stages.refine import REFINE_MIN_SAMPLES
 from pv_ambient.stages.refine import threshold_correction
 
 SPPS = (2, 4, 8, 16, 32, 64)

@@ -228,7 +228,7 @@ def count_samples(view, medium, step, ert, W, H, counts, trans):
 def march_records(renderer, camera, size):
     """The ray cast's View and Medium records of ``camera`` at ``size``."""
     return (K.view_of(camera, size, renderer.geometry),
-            K.medium_of(renderer.optics, renderer.majorant(), MAJORANT_BLOCK))
+            K.medium_of(renderer.optics, renderer.stages.majorant(), MAJORANT_BLOCK))
 
 
 def sample_counts(renderer, camera, size, step, ert=ERT):
@@ -317,7 +317,7 @@ def check_count(n=48, size=(48, 40)):
     for name, tf in cases.items():
         r = pa.Renderer(grid, transfer_function=tf)
         step = r.default_step()
-        maj = r.majorant()
+        maj = r.stages.majorant()
         lines.append(f"  TF {name}: {int((maj <= 0).sum())} of {maj.size} majorant blocks empty")
         for deg in (0.0, 37.0, 101.0):
             cam = scenes.orbit(base, deg)
