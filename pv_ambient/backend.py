@@ -50,11 +50,12 @@ def blas_one_thread():
 
     The renderer's own BLAS calls are small (norms and dot products of the diffusion solver's
     vectors, a coarse-grid product), but a multi-threaded BLAS keeps its worker threads spinning
-    for a while after each call: they then compete with the Numba kernels for the cores — on
-    2 cores the camera-move frames that followed a diffusion solve took 3× their time until the
-    spinning stopped (benchmarks/progressive.py, docs/progressive.rst). With one BLAS thread there
-    are no such workers. Uses :mod:`threadpoolctl`, which finds the loaded BLAS libraries; its
-    controller is built once, at the first render.
+    for a while after each call, and they take the cores from the Numba kernels that follow
+    (docs/performance.rst, "BLAS threads"). With one BLAS thread there are no such workers. Uses
+    :mod:`threadpoolctl`, which finds the loaded BLAS libraries; its controller is built once, at
+    the first render.
+
+    .. versionadded:: 0.4.0
 
     >>> import numpy as np
     >>> with blas_one_thread():
@@ -109,15 +110,17 @@ def cuda_problem():
     return None
 
 
-#: The last numba-cuda release seen to compile kernels through ``numpy.row_stack``, which NumPy 2.5
-#: removed: on an H100 with NumPy 2.5.2 its first kernel compilation failed with AttributeError
-#: (benchmarks/results/gpu.txt). Later releases are not known to fail and are let through.
+#: The last numba-cuda release known to compile kernels through ``numpy.row_stack``, which NumPy 2.5
+#: removed: with it the first kernel compilation fails (docs/performance.rst, "GPU"). Later
+#: releases are not known to fail and are let through.
 NUMBA_CUDA_ROW_STACK = (0, 30, 4)
 
 
 def numpy_clash(numba_cuda_version):
     """An ImportError when numba-cuda ``numba_cuda_version`` cannot compile a kernel with this NumPy
     (it needs ``numpy.row_stack``, gone in NumPy 2.5), else None.
+
+    .. versionadded:: 0.4.0
 
     >>> import numpy as np
     >>> numpy_clash("0.31.0") is None

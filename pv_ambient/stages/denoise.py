@@ -7,19 +7,17 @@ un-denoised standard-error image and says in its metadata that it was denoised.
 Two steps around the filter, both scene-independent:
 
 * **Mean preservation** (default on). The noisy image's mean is an unbiased estimate of the
-  converged image's mean; OIDN's output is not (off its own input's by 1–2 % on the trade
-  scenes). :func:`denoise_radiance` therefore rescales each channel of the denoised image so that
-  its sum equals the noisy image's (exact by construction); the image mean then keeps only the
-  Monte Carlo spread of the input, which no post-process can remove.
+  converged image's mean; OIDN's output is not. :func:`denoise_radiance` therefore rescales each
+  channel of the denoised image so that its sum equals the noisy image's (exact by
+  construction); the image mean then keeps only the Monte Carlo spread of the input, which no
+  post-process can remove.
 * **Albedo guide** (optional ``albedo=``). A volume has no surface albedo, but the expected
   scattering albedo at a camera ray's first collision, ``∫ T(t) σt(t) a(t) dt`` (premultiplied
   by coverage, in [0, 1], noise-free), plays its role: it is the emission–absorption image with
   the colour replaced by the albedo, :meth:`pv_ambient.Renderer.albedo_guide` (one ray cast,
   passed as ``denoise_radiance(res.radiance, albedo=renderer.albedo_guide(camera, window_size))``).
 
-The measurements behind both choices (bias, block error and SSIM per scene, and the alternatives
-that were tried and rejected) are in ``benchmarks/results/denoise_notes.md``; docs/path_tracer.rst
-describes the method.
+The method and the measurements behind both steps: docs/path_tracer.rst, "Denoising".
 
 >>> import numpy as np
 >>> from pv_ambient.stages.denoise import available, preserve_mean
@@ -89,7 +87,7 @@ def denoise_radiance(radiance, *, albedo=None, quality="high", mean_preserving=T
 
     ``albedo``: optional noise-free guide (H, W, 3) in [0, 1], e.g. :meth:`pv_ambient.Renderer.albedo_guide`.
     ``mean_preserving``: rescale each channel so the image mean equals the noisy input's
-    (:func:`preserve_mean`; see the module docstring for why and the measured effect).
+    (:func:`preserve_mean`; why: the module docstring).
     Non-finite and negative input values count as 0. Raises ``ImportError`` naming the optional
     extra when ``pyoidn`` is missing.
     """

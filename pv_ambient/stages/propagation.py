@@ -6,7 +6,7 @@ For every light j the renderer needs, at any point x of the medium,
   direct term of ambient scattering), stored as optical depth τ_j on a *light grid*;
 * the front transmittance ``Φ_j`` read at the ball's entry point ``x − r·ω_j``, in one of two
   modes: ``"beer_lambert"`` (``Φ = T_j(x − r·ω_j)``, a second lookup in the same τ grid) or
-  ``"tube"`` (the paper's tube march through touching balls, :mod:`pv_ambient.ambient`).
+  ``"tube"`` (the paper's tube march through touching balls, :func:`tube_extinction`).
 
 A point light's fall-off ``I/|x − x_l|²`` is evaluated by the ray caster at the sample itself;
 a directional light has none and starts where its ray enters the grid. Optical depth is

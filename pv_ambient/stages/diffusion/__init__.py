@@ -29,8 +29,7 @@ The package
   (``solve_for_light(sweep_orders=K)``, docs/diffusion.rst §5), with the hat-projected medium and
   first-collision source of :mod:`.sources` (:func:`hat_medium`, :func:`hat_source`).
 
-Measured figures (errors against path tracing, iteration counts, times):
-``benchmarks/results/diffusion_notes.md``.
+Measured figures (errors against path tracing, iteration counts, times): docs/diffusion.rst.
 
 This package imports numpy, scipy and the kernels only (no pyvista or vtk).
 """

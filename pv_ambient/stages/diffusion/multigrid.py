@@ -7,11 +7,10 @@ semi-coarsening on strongly anisotropic spacing; coarse couplings are the summed
 across an aggregate interface halved along coarsened axes, absorption and boundary terms summed;
 red–black Gauss–Seidel, red→black before and black→red after the coarse correction; a dense
 solve at ``COARSE_NODES`` nodes or fewer), so iteration counts barely grow with the grid.
-``preconditioner="jacobi"`` is the diagonal one, for comparison (many times the iterations and
-the time on the benchmarks' scenes). Grids and multigrid levels of at most ``SERIAL_NODES``
+``preconditioner="jacobi"`` is the diagonal one, for comparison (far more iterations). Grids and multigrid levels of at most ``SERIAL_NODES``
 nodes run on one thread (a parallel launch costs more than the work). The iteration stops when
 the relative residual ``‖b − A φ‖₂ / ‖b‖₂ ≤ tol`` (b, A: the finite-volume system, in W per
-control volume). Measured iteration counts and times: ``benchmarks/results/diffusion_notes.md``.
+control volume). Measured iteration counts and times: docs/diffusion.rst ("Accuracy").
 
 This module imports numpy, numba and the kernels only.
 """

@@ -22,9 +22,8 @@ the swept orders and the diffusion solution are added into one φ and F.
 
 Directions: a spherical Fibonacci set (equal weights ``4π/M``, no preferred axis): 64 for the
 first order (the phase function's lobe about the light's direction), 32 for the later ones, whose
-sources are broader (measured: the same errors as 64 throughout, within 0.01 of 128;
-benchmarks/results/diffusion_notes.md). Boundaries: nothing enters the box (the direct light is
-the camera pass's own).
+sources are broader: more directions change the image little (docs/diffusion.rst §5,
+"Directions"). Boundaries: nothing enters the box (the direct light is the camera pass's own).
 
 This module imports numpy, the kernels and the input checks only.
 """

@@ -42,7 +42,7 @@ fluence and flux; φ and F are the sums.
 A solve that reaches ``maxiter`` (or ``max_outer``) first warns (``UserWarning``).
 
 Measured errors against path tracing for several floors, iteration counts and the limiter's
-passes: ``benchmarks/results/diffusion_notes.md``.
+passes: docs/diffusion.rst ("The vacuum floor", "Accuracy").
 
 This module imports numpy, the input checks and the other modules of this package only (no
 Renderer, no pyvista or vtk): the caller computes the light's optical depth.

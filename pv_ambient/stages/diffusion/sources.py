@@ -165,9 +165,7 @@ def hat_source(light, geometry, tau, light_grid, optics, medium, *, near=NEAR):
     camera pass and the path tracer see it), E there from the light grid's τ. The
     control-volume form ``σs_n · mean(E)`` of :func:`source_in_medium` takes σs at the node
     alone — too much where classification is convex in the data or a dense layer is one voxel
-    thin: with it (and node samples for the medium) the sweeps made the CT phantom's second
-    scattering order 42 % brighter than path tracing's, a one-voxel shell's (σt = 8, 33³) 24 %;
-    with this projection and :func:`hat_medium`, 5 % and 3 % (docs/diffusion.rst §5). Within
+    thin, which makes the swept orders too bright (docs/diffusion.rst §5, "Sub-voxel medium"). Within
     ``near + 1`` index units of a point light (1/d² singular) the control-volume form
     ``σs_n · mean(E)`` is kept (:func:`direct_irradiance`, σs from ``medium``).
 

@@ -31,7 +31,7 @@ Modules
 :mod:`~pv_ambient.stages.preintegration.store`
     the disk cache and the shipped default: :func:`get_table`, :func:`build_default`.
 
-Measured costs and standard errors are in ``benchmarks/results/preintegration_notes.md``.
+Measured costs and standard errors: docs/ambient_scattering.rst §2.
 This package imports only numpy, the kernels and (lazily) tqdm/platformdirs: no pyvista or vtk.
 """
 

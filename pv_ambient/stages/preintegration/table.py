@@ -27,7 +27,7 @@ Paths per τ node are the preset's ``n_paths`` × up to :data:`PATH_BOOST` (32) 
 to ×1 from τ ≈ 22: short walks are cheap, and at albedo 1 a walk from the centre of a τ = 50 ball
 takes ~10³–5·10³ vertices. Where a quantity is tiny (large τ with albedo < 1; backward
 directions for g → 1) its relative error is larger. Measured times and standard errors per
-preset: ``benchmarks/results/preintegration_notes.md``.
+preset: docs/ambient_scattering.rst §2.
 """
 
 from __future__ import annotations
