@@ -129,7 +129,7 @@ def _cmd_demo(args) -> int:
 
 
 BENCHMARKS = {"trade": "trade.py", "ea": "ea_vs_vtk.py", "ambient": "ambient.py", "gpu": "gpu.py"}
-BENCHMARK_HELP = {"trade": "every model against the path-traced reference: error against time (README, 'The trade')",
+BENCHMARK_HELP = {"trade": "every model against the path-traced reference: error against time (docs/trade.rst)",
                   "ea": "emission-absorption against VTK's fixed_point and gpu mappers: agreement and speed",
                   "ambient": "ambient scattering frame costs (camera move, relight, TF change, table slice)",
                   "gpu": "the CUDA backend against the CPU (needs numba-cuda and a GPU)"}
@@ -141,19 +141,20 @@ def _cmd_bench(args) -> int:
         args.bench_parser.print_help()
         return 0
     which = rest.pop(0) if rest and rest[0] in BENCHMARKS else "trade"
-    if "--backend" in rest:  # ``bench --backend cuda``: the GPU benchmark (benchmarks/gpu.py)
+    if "--backend" in rest:  # ``bench --backend cuda``: the GPU benchmark (gpu.py)
         i = rest.index("--backend")
         if i + 1 < len(rest) and rest[i + 1] == "cuda":
             which = "gpu"
             del rest[i:i + 2]
     here = Path(__file__).resolve().parent.parent / "benchmarks" / BENCHMARKS[which]
     if not here.exists():
-        print(f"benchmarks/{BENCHMARKS[which]} is part of the source tree; run from a checkout", file=sys.stderr)
+        print(f"the benchmark {BENCHMARKS[which]} is part of the source tree (its benchmarks folder); run from a "
+              "checkout", file=sys.stderr)
         return 2
     import runpy
 
     sys.argv = [str(here)] + rest
-    sys.path.insert(0, str(here.parent))  # as `python benchmarks/X.py` would: their shared helpers
+    sys.path.insert(0, str(here.parent))  # as running the script itself would: its shared helpers
     runpy.run_path(str(here), run_name="__main__")
     return 0
 
@@ -277,7 +278,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_demo)
     b = sub.add_parser("bench", usage="pv-ambient bench [NAME] [OPTIONS]", add_help=False,
                        help="run a benchmark table (from a source checkout); 'bench NAME --help' lists its options",
-                       description="Run one of the benchmark scripts of benchmarks/ (a source checkout); every "
+                       description="Run one of the benchmark scripts of the source checkout; every "
                                    "argument after NAME goes to it: 'pv-ambient bench NAME --help' lists its options.",
                        formatter_class=argparse.RawDescriptionHelpFormatter,
                        epilog="benchmarks:\n" + "\n".join(f"  {k:8s} {v}" for k, v in BENCHMARK_HELP.items())

@@ -39,9 +39,8 @@ class ModelSpec:
     title: str = ""
 
 
-#: The models, in the order documentation lists them. Ambient scattering's 8 voxels with
-#: Beer–Lambert fronts measured closest to the path-traced reference on the three scenes of
-#: ``benchmarks/trade.py`` (radii 2, 4, 8 × both propagation modes; README, "The trade").
+#: The models, in the order documentation lists them. Ambient scattering's default radius (8 voxels,
+#: Beer–Lambert fronts) is the one closest to the path-traced reference (docs/trade.rst).
 MODEL_TABLE = (
     ModelSpec("emission_absorption", 0, lit=False, title="emission-absorption"),
     ModelSpec("ambient_occlusion", 1, lit=False, ball=True, radius_voxels=4.0, title="ambient occlusion"),
@@ -63,8 +62,7 @@ ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
 #: 2 where max σt·h > 0.3 else 1), preintegrated-table effort, samples per pixel of
 #: ``path_traced``, and whether an isotropic phase function's direct light is baked on the light grid
 #: once per light change (``bake_lights``; docs/models.rst, "Baked in-scattering") rather than
-#: evaluated light by light at every sample. Measured cost and error per preset: README, "The trade:
-#: which model when".
+#: evaluated light by light at every sample. Cost and error per preset: docs/trade.rst.
 QUALITY_PRESETS = {
     "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16,
                 "bake_lights": True},
@@ -89,9 +87,8 @@ DEFAULT_PROGRESSIVE_BASE = "diffusion"
 #: The ``progressive`` model's control picture :math:`N'` (docs/progressive.rst) is marched at this
 #: fraction of the ray step, once per view when samples are first taken: the picture converges to
 #: the transfer equation's answer up to that march's quadrature error, which halving the step cuts
-#: by about four (midpoint rule). Measured by ``benchmarks/control_step.py`` on six scenes (block
-#: error relative to the reference's mean): at the step 0.0005–0.024 (the CT phantom's thin dense
-#: shell the largest), at half of it 0.0003–0.0048, at a quarter 0.0001–0.0011 at twice the cost.
+#: by about four (midpoint rule); a quarter of the step would cut it further at twice the cost
+#: (docs/progressive.rst, "The estimator").
 CONTROL_STEP_FRACTION = 0.5
 #: Every option a scene file may carry at top level besides the common ones.
 SCENE_OPTIONS = MODEL_OPTIONS | {"radius", "light_resolution", "ambient_radiance", "table_quality"}
@@ -107,9 +104,9 @@ MAJORANT_BLOCK = 8
 #: Default early-ray-termination threshold on the transmittance.
 ERT = 1e-5
 #: Scattering orders that ``auto`` carries by transport sweeps with ``quality="accurate"``
-#: (flux-limited diffusion for the rest; docs/diffusion.rst §5, docs/models.rst): the count of
-#: 4, 6, 8 and 12 with the lowest worst block error over the six scenes of
-#: ``benchmarks/noise_free.py`` (no camera-move cost: the sweeps are view-independent).
+#: (flux-limited diffusion for the rest; docs/diffusion.rst §5, docs/models.rst): of 4, 6, 8 and
+#: 12, the count with the lowest worst error against the path-traced reference (the sweeps are
+#: view-independent: no camera-move cost).
 AUTO_SWEEP_ORDERS = 8
 #: Diffusion's most accurate options (flux limiting and the transport sweeps): ``auto``'s choice at
 #: quality "accurate" and the ``progressive`` model's default base except at "preview"; options the

@@ -238,10 +238,10 @@ class Renderer:
                frame 2–4× flux-limited diffusion's);
             5. with ``time_budget=SECONDS`` (a still image): ``path_traced`` with as many samples
                per pixel as fit in the budget (``samples_per_pixel`` is then the cap, default
-               4096), denoised when ``pyoidn`` is installed — the path tracer reaches a
-               noise-free model's error in less time than that model's first frame on all but
-               two rows of the trade benchmark (README, "The trade"). The denoiser's time (one emission–absorption frame for its
-               guide, then OIDN) comes on top of the budget.
+               4096), denoised when ``pyoidn`` is installed — at a still image's budget the
+               denoised path tracer usually reaches a noise-free model's error sooner than that
+               model's first frame (docs/trade.rst). The denoiser's time (one
+               emission–absorption frame for its guide, then OIDN) comes on top of the budget.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
             the smallest grid spacing; light grid 1×, docs/ambient_scattering.rst §3's default, ≥ 2× the data
