@@ -12,9 +12,9 @@ integrated exactly for a piecewise-constant medium: a segment of extinction σ a
 * ambient scattering (docs/ambient_scattering.rst §4): single scattering plus ``a·Σ_j E_j Φ_j D(θ_j, rσ̄, g, ā)``,
 
 per RGB channel (a: albedo, Le: emission, E_j: I_j/d² or the directional irradiance, T_j and
-Φ_j the light's transmittance volumes). Segments whose block majorant is zero are skipped to
-the block's exit; marching stops when T falls below ``ert``; with ``jitter`` the segment grid
-is shifted by a counter-based uniform per pixel.
+Φ_j the light's transmittance volumes); ``model`` is one of the ids of :mod:`.models`. Segments
+whose block majorant is zero are skipped to the block's exit; marching stops when T falls below
+``ert``; with ``jitter`` the segment grid is shifted by a counter-based uniform per pixel.
 """
 
 from __future__ import annotations
@@ -26,21 +26,13 @@ from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .medium import MODE_GRID, lut_coords, lut_value
+from .models import AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION
 from .phase import phase_eval
 from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
 
 STREAM_JITTER = 1
 INV_4PI_RC = 1.0 / (4.0 * math.pi)
-
-EMISSION_ABSORPTION = 0
-AMBIENT_OCCLUSION = 1
-SINGLE_SCATTERING = 2
-AMBIENT_SCATTERING = 3
-DIFFUSION = 4
-
-PROP_BEER_LAMBERT = 0
-PROP_TUBE = 1
 
 
 @scalar(inline=True)
