@@ -84,7 +84,9 @@ def light_at(l, lights, wx, wy, wz):
             inv = 1.0 / math.sqrt(d2)
         else:
             vx, vy, vz, inv = 0.0, 0.0, 1.0, 1.0
-        d2 = max(d2, d2min)  # guard the singularity at the light (documented in render.py)
+        # Clamp d² at d2min: no sample resolves the 1/d² singularity at the light
+        # (docs/conventions.rst, "Lights").
+        d2 = max(d2, d2min)
         return lpow[l, 0] / d2, lpow[l, 1] / d2, lpow[l, 2] / d2, vx * inv, vy * inv, vz * inv
     return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
 
@@ -491,12 +493,9 @@ def row_stride(n):
 
 
 #: The CPU driver's pixel tiles: ``TILE`` × ``TILE`` pixels marched one after the other by one thread.
-#: Neighbouring rays in both image directions read the same cache lines of the volume, so a tile
-#: reads each line from memory about once where a row of pixels read it again for every row: a
-#: 256³ volume (64 MiB, beyond the last-level cache) at a ray step of 4 samples marched 2.3× faster
-#: in 16² tiles than row by row, and a full frame at half a sample 10 % faster (measured 2 threads,
-#: emission–absorption; tiles of 8 and 32 were slower). Which pixel a thread renders does not change
-#: its value.
+#: Why: neighbouring rays in both image directions read the same cache lines of the volume, so a
+#: tile reads each line from memory about once where a row of pixels reads it again for every row.
+#: Which pixel a thread renders does not change its value.
 TILE = 16
 
 
