@@ -83,8 +83,9 @@ def walk(view, medium, lights, paths, k, dim, ox, oy, oz, dx, dy, dz, br, bgc, b
     """The transport loop of :func:`trace_path_first` from ray ``o + t d`` with throughput ``β`` (rgb),
     direction weight ``wdir`` and ``depth`` collisions so far, random numbers ``draw(k, dim…)``; with
     ``scatter_first`` it starts by scattering at ``o`` (a collision of extinction ``sig`` reached
-    along ``d``). With ``can_split`` it stops at the first collision whose :func:`split_count` ``n``
-    exceeds 1 and returns that collision's state with ``β`` and ``wdir`` divided by ``n``.
+    along ``d``). With ``can_split`` it stops at the first collision whose
+    :func:`.pathtrace_near.split_count` ``n`` exceeds 1 and returns that collision's state with
+    ``β`` and ``wdir`` divided by ``n``.
 
     Returns ``(r, g, b, hit, t, k0, k1, f, n, ox, oy, oz, dx, dy, dz, br, bg, bb, wdir, depth, sig)``:
     the radiance gathered, the primary-ray first collision of :func:`trace_path_first` (depth 0
@@ -102,7 +103,7 @@ def walk(view, medium, lights, paths, k, dim, ox, oy, oz, dx, dy, dz, br, bgc, b
     scatter = scatter_first
     while True:
         if scatter:
-            # Sample the scattered direction (from the phase function: weight p/pdf = 1).
+            # Sample the scattered direction and its weight p/pdf (step 5: 1 from the phase function).
             dx, dy, dz, wd, dim = scatter_direction(ox, oy, oz, dx, dy, dz, sig, view, medium, lights, paths, k, dim)
             if wd != 1.0:
                 wdir *= wd
@@ -210,9 +211,9 @@ def trace_path_first(view, medium, lights, paths, i, j, width, height, pixel, sa
     k0, k1, f)`` with ``t`` the collision's distance along the camera ray and ``(k0, k1, f)`` the
     medium's table entries there (:func:`.tracking.delta_track`'s; all 0 where ``hit`` is 0) — the
     ``progressive`` model's control variate evaluates its source at that point
-    (:mod:`.residual`). A path that splits (:func:`split_count`) continues as its copies, each
-    with its own random numbers (``key(k, copy + 1, depth)``, ``k`` the path's key); copies may
-    split once more, their copies not (module docstring, item 7)."""
+    (:mod:`.residual`). A path that splits (:func:`.pathtrace_near.split_count`) continues as its
+    copies, each with its own random numbers (``key(k, copy + 1, depth)``, ``k`` the path's key);
+    copies may split once more, their copies not (module docstring, item 7)."""
     k = key(paths.seed, pixel, sample)
     ox, oy, oz, dx, dy, dz = camera_ray(view.cam, i, j, width, height)
     (lr, lg, lb, hit, t_hit, k0_hit, k1_hit, f_hit, n, ox, oy, oz, dx, dy, dz, br, bgc, bb, wdir, depth,
