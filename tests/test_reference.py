@@ -19,7 +19,7 @@ from scipy.ndimage import map_coordinates
 
 import pv_ambient as pa
 from pv_ambient._kernels import rng
-from pv_ambient._kernels.pathtrace import scatter_direction
+from pv_ambient._kernels.pathtrace_near import scatter_direction
 from pv_ambient._kernels.records import medium_of
 from pv_ambient._kernels.tracking import draw, free_flight_array, transmittance_array
 from pv_ambient.inputs.camera import Camera
@@ -828,7 +828,7 @@ def test_split_count_is_the_weight_window():
     # pathtrace.split_count: ⌈β R / (SPLIT_WINDOW d)⌉ copies within R of a point light, capped at
     # SPLIT_MAX, exactly 1 where that is ≤ 1, outside R, on the light, or for a directional light.
     from pv_ambient._kernels import records as K
-    from pv_ambient._kernels.pathtrace import SPLIT_MAX, SPLIT_WINDOW, split_count
+    from pv_ambient._kernels.pathtrace_near import SPLIT_MAX, SPLIT_WINDOW, split_count
 
     point = K.Lights(np.array([0, 1], np.int64), np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.ones((2, 3)), 1,
                      0.0, 1e-6)
@@ -917,7 +917,7 @@ def test_angles_about_the_light_follow_the_mixture_density(sig_vertex, sig_light
     # over 100k samples (false alarm 1e-4); the log-uniform part is what puts ≥ 5 % of them within
     # 10 θ_min (the uniform angle: 0.2 %), and a light in empty space gets none of it.
     from pv_ambient._kernels import records as K
-    from pv_ambient._kernels.pathtrace import CONE_SHARE, LOG_SHARE
+    from pv_ambient._kernels.pathtrace_near import CONE_SHARE, LOG_SHARE
 
     share = LOG_SHARE * sig_light / (sig_light + sig_vertex)
 

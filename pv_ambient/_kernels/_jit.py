@@ -38,9 +38,9 @@ def scalar(fn=None, *, inline=False):
     """Compile a scalar (per-ray / per-voxel / per-path) function for the CPU target.
 
     ``inline=True`` inlines it into its callers at Numba's IR level (``inline="always"``): for the
-    small functions of the per-sample path (interpolation, classification, the baked lookup), which
-    LLVM does not always inline across dispatchers — measured 27 % of an emission–absorption
-    frame. The returned dispatcher is also registered for :func:`cuda_device`."""
+    small functions of the per-sample path (interpolation, classification, the baked lookup). Why:
+    LLVM does not always inline across dispatchers, and the calls left cost a sizeable part of an
+    emission–absorption frame. The returned dispatcher is also registered for :func:`cuda_device`."""
 
     def wrap(f):
         opts = dict(_COMMON, inline="always") if inline else _COMMON

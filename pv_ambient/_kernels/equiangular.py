@@ -1,7 +1,7 @@
 """Equiangular distance sampling toward a point light (Kulla & Fajardo 2012, "Importance Sampling
-Techniques for Path Tracing in Participating Media"): a building block for a finite-variance
-path-traced estimator of point lights inside a medium. Not yet called by the path tracer, whose
-estimator (free flight and next-event estimation) docs/path_tracer.rst describes.
+Techniques for Path Tracing in Participating Media"): the path tracer's distance sampling near
+point lights inside a medium (:mod:`.pathtrace_nee`; docs/path_tracer.rst, "Point lights inside
+the medium").
 
 Along a ray ``x(t) = o + t ω`` (``ω`` a unit vector) over ``t ∈ [a, b]``, a point light at ``c`` is
 at squared distance ``D² + (t − Δ)²``, with ``Δ = (c − o)·ω`` the light's projection on the ray and

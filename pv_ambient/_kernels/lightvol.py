@@ -28,8 +28,8 @@ from .preint import f_lookup
 #: Tolerance (light-grid cells) of the sweep's discrete choices — a node's dominant axis, whether
 #: the light is within reach, whether a characteristic leaves the box, a march's step count —
 #: whose arguments are often whole numbers up to rounding (lights on nodes or half-way between,
-#: diagonal characteristics, marches of exactly J layers): without it the light volume depended
-#: on the last bit of the world→index map, so scaling a scene changed its image by up to 1e-4
+#: diagonal characteristics, marches of exactly J layers). Why: without it the light volume
+#: depends on the last bit of the world→index map, so scaling a scene changes its image
 #: (``tests/test_extremes.py``). Must not exceed ``propagation.LIGHT_SNAP`` (a node at distance
 #: 0 from the light along an axis is then never given that axis unless it sits on the light).
 TIE = 1e-9

@@ -12,9 +12,9 @@ integrated exactly for a piecewise-constant medium: a segment of extinction σ a
 * ambient scattering (docs/ambient_scattering.rst §4): single scattering plus ``a·Σ_j E_j Φ_j D(θ_j, rσ̄, g, ā)``,
 
 per RGB channel (a: albedo, Le: emission, E_j: I_j/d² or the directional irradiance, T_j and
-Φ_j the light's transmittance volumes). Segments whose block majorant is zero are skipped to
-the block's exit; marching stops when T falls below ``ert``; with ``jitter`` the segment grid
-is shifted by a counter-based uniform per pixel.
+Φ_j the light's transmittance volumes); ``model`` is one of the ids of :mod:`.models`. Segments
+whose block majorant is zero are skipped to the block's exit; marching stops when T falls below
+``ert``; with ``jitter`` the segment grid is shifted by a counter-based uniform per pixel.
 """
 
 from __future__ import annotations
@@ -26,21 +26,13 @@ from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .medium import MODE_GRID, lut_coords, lut_value
+from .models import AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION
 from .phase import phase_eval
 from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
 
 STREAM_JITTER = 1
 INV_4PI_RC = 1.0 / (4.0 * math.pi)
-
-EMISSION_ABSORPTION = 0
-AMBIENT_OCCLUSION = 1
-SINGLE_SCATTERING = 2
-AMBIENT_SCATTERING = 3
-DIFFUSION = 4
-
-PROP_BEER_LAMBERT = 0
-PROP_TUBE = 1
 
 
 @scalar(inline=True)
@@ -92,7 +84,9 @@ def light_at(l, lights, wx, wy, wz):
             inv = 1.0 / math.sqrt(d2)
         else:
             vx, vy, vz, inv = 0.0, 0.0, 1.0, 1.0
-        d2 = max(d2, d2min)  # guard the singularity at the light (documented in render.py)
+        # Clamp d² at d2min: no sample resolves the 1/d² singularity at the light
+        # (docs/conventions.rst, "Lights").
+        d2 = max(d2, d2min)
         return lpow[l, 0] / d2, lpow[l, 1] / d2, lpow[l, 2] / d2, vx * inv, vy * inv, vz * inv
     return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
 
@@ -499,12 +493,9 @@ def row_stride(n):
 
 
 #: The CPU driver's pixel tiles: ``TILE`` × ``TILE`` pixels marched one after the other by one thread.
-#: Neighbouring rays in both image directions read the same cache lines of the volume, so a tile
-#: reads each line from memory about once where a row of pixels read it again for every row: a
-#: 256³ volume (64 MiB, beyond the last-level cache) at a ray step of 4 samples marched 2.3× faster
-#: in 16² tiles than row by row, and a full frame at half a sample 10 % faster (measured 2 threads,
-#: emission–absorption; tiles of 8 and 32 were slower). Which pixel a thread renders does not change
-#: its value.
+#: Why: neighbouring rays in both image directions read the same cache lines of the volume, so a
+#: tile reads each line from memory about once where a row of pixels reads it again for every row.
+#: Which pixel a thread renders does not change its value.
 TILE = 16
 
 

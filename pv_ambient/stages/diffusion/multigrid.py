@@ -36,7 +36,7 @@ class Level:
     the coarsest, the dense inverse."""
 
     def __init__(self, w, c):
-        from ..._kernels.diffusion import make_diag
+        from ..._kernels.diffusion_operator import make_diag
 
         self.wx, self.wy, self.wz = (np.ascontiguousarray(x, dtype=np.float64) for x in w)
         self.c = np.ascontiguousarray(c, dtype=np.float64)
@@ -69,7 +69,7 @@ def _dense(lv):
 
 def hierarchy(w, c, spacing, coarse_nodes=COARSE_NODES):
     """Aggregation multigrid levels, finest first; the last carries a dense inverse."""
-    from ..._kernels.diffusion import coarsen
+    from ..._kernels.diffusion_multigrid import coarsen
 
     levels = [Level(w, c)]
     h = np.asarray(spacing, np.float64).copy()
@@ -115,7 +115,8 @@ def one_thread_if(flag):
 
 def _vcycle(levels, l):
     """levels[l].x ≈ A_l⁻¹ levels[l].b by one symmetric V-cycle."""
-    from ..._kernels.diffusion import gs_color, gs_first, prolong_add, residual_restrict
+    from ..._kernels.diffusion_multigrid import prolong_add, residual_restrict
+    from ..._kernels.diffusion_operator import gs_color, gs_first
 
     lv = levels[l]
     if lv.inv is not None:
@@ -142,7 +143,8 @@ def _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict):
 
 def pcg(levels, b, x0, tol, maxiter, preconditioner, bar=None):
     """Solve A x = b (A = levels[0]); returns x, iterations, relative residual."""
-    from ..._kernels.diffusion import cg_direction, cg_step, dot_parts, jacobi, matvec_dot, residual
+    from ..._kernels.diffusion_cg import cg_direction, cg_step, dot_parts, jacobi
+    from ..._kernels.diffusion_operator import matvec_dot, residual
 
     lv = levels[0]
     ops = lv.ops

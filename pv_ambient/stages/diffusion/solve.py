@@ -86,7 +86,7 @@ def flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
     """Levermore–Pomraning D = λ(R)/σt' at the nodes, R = |∇φ − 3Q1|/(σt' φ), clipped to
     [d_min, d_max] (d_max: the vacuum floor's D); ∇φ as ``numpy.gradient`` (central differences,
     one-sided on the box faces). The kernel: ``_kernels.diffusion.limiter_coefficients``."""
-    from ..._kernels.diffusion import limiter_coefficients
+    from ..._kernels.diffusion_system import limiter_coefficients
 
     out = np.empty(grid.shape)
     q1 = NO_Q1 if Q1 is None else np.ascontiguousarray(Q1, np.float64)

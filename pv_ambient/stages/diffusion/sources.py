@@ -126,7 +126,7 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     omega : numpy.ndarray
         float64 (nx, ny, nz, 3): the E-weighted mean propagation direction (world).
     """
-    from ..._kernels.diffusion import irradiance_point, transmittance_cv
+    from ..._kernels.diffusion_sources import irradiance_point, transmittance_cv
     from ...inputs.lights import DirectionalLight, PointLight
 
     shape = tuple(int(n) for n in geometry.shape)
@@ -188,7 +188,7 @@ def hat_source(light, geometry, tau, light_grid, optics, medium, *, near=NEAR):
     omega : numpy.ndarray
         float64 (nx, ny, nz, 3), the light's mean propagation direction weighted by σt E.
     """
-    from ..._kernels.diffusion import hat_source as kernel
+    from ..._kernels.diffusion_sources import hat_source as kernel
     from ...inputs.lights import DirectionalLight, PointLight
 
     rec = optics_arrays(optics)

@@ -1,0 +1,24 @@
+"""The ray-cast models' ids: the one enumeration of them (docs/models.rst lists the models).
+
+The ray cast (:mod:`.raycast`) and its control variate (:mod:`.residual`) branch on these ids,
+and the model table (:mod:`pv_ambient.rendering.presets`) reads them from here. They are plain
+``int`` constants rather than an ``IntEnum``: Numba freezes a module-level integer into the
+compiled code as a constant, so a kernel branching on one compiles as if the literal were written
+there, for the CPU and for CUDA alike.
+"""
+
+from __future__ import annotations
+
+#: Max's emission–absorption: the source is the transfer function's colour.
+EMISSION_ABSORPTION = 0
+#: Emission–absorption plus ambient light attenuated over a ball (docs/ambient_scattering.rst §5).
+AMBIENT_OCCLUSION = 1
+#: Each light's direct light scattered once toward the camera.
+SINGLE_SCATTERING = 2
+#: Single scattering plus the ball's multiply scattered light (docs/ambient_scattering.rst §4).
+AMBIENT_SCATTERING = 3
+#: Single scattering plus the diffusion solve's multiply scattered light (docs/diffusion.rst).
+DIFFUSION = 4
+
+#: Every ray-cast model id, in the order docs/models.rst lists the models.
+RAYCAST_MODELS = (EMISSION_ABSORPTION, AMBIENT_OCCLUSION, SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)
