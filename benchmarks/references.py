@@ -40,7 +40,8 @@ REF_SPP, REF_ERROR, REF_SEED = 4096, 0.01, 99
 
 #: The path tracer's sources (pv_ambient.stages.reference and what its kernel imports): part of
 #: the cached references' key.
-PATH_TRACER_SOURCES = ("stages/reference.py", "_kernels/pathtrace.py", "_kernels/tracking.py",
+PATH_TRACER_SOURCES = ("stages/reference.py", "_kernels/pathtrace.py", "_kernels/pathtrace_nee.py",
+                       "_kernels/pathtrace_near.py", "_kernels/models.py", "_kernels/tracking.py",
                        "_kernels/equiangular.py", "_kernels/majorant.py", "_kernels/phase.py",
                        "_kernels/geometry.py", "_kernels/raycast.py", "_kernels/rng.py", "_kernels/interp.py",
                        "_kernels/medium.py", "_kernels/records.py", "_kernels/_jit.py")

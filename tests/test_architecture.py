@@ -204,7 +204,8 @@ def test_kernels_own_the_model_ids():
     from pv_ambient.rendering.presets import MODEL_IDS, MODEL_TABLE
 
     ids = {m.name: m.kernel_id for m in MODEL_TABLE if m.kernel_id is not None}
-    assert ids == MODEL_IDS and ids == models.RAYCAST_MODEL_IDS
+    assert ids == MODEL_IDS and sorted(ids.values()) == sorted(models.RAYCAST_MODELS)
+    assert all(getattr(models, name.upper()) == i for name, i in ids.items())
     src = (PKG / "rendering" / "presets.py").read_text()
     tree = ast.parse(src)
     literal_ids = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call)
@@ -254,3 +255,37 @@ def test_pickled_renderer_renders_identically_in_a_subprocess(tmp_path):
         here = r.render(model=model, **kw, **({"samples_per_pixel": 4} if model == "path_traced" else {})).radiance
         assert here.max() > 0 or model == "emission_absorption"
         np.testing.assert_array_equal(there[model], here, err_msg=model)
+
+
+#: Limits that keep each module about one job and each function readable in one screen (docs/architecture.rst).
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_CODE_LINES = 100
+
+
+def code_lines(node, source_lines) -> int:
+    """Lines of code of a function: non-blank, non-comment lines, its docstring excluded."""
+    lines = set(range(node.lineno, node.end_lineno + 1))
+    body = node.body
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+            and isinstance(body[0].value.value, str):
+        lines -= set(range(body[0].lineno, body[0].end_lineno + 1))
+    return sum(1 for n in lines if source_lines[n - 1].strip() and not source_lines[n - 1].strip().startswith("#"))
+
+
+def test_modules_and_functions_stay_small():
+    """No module over 600 lines; no function outside ``_kernels`` over 100 lines of code (a kernel
+    may be one long loop that must stay one function to be compiled as one)."""
+    bad = []
+    for f in FILES:
+        src = f.read_text()
+        lines = src.splitlines()
+        if len(lines) > MAX_MODULE_LINES:
+            bad.append(f"{f.relative_to(ROOT)}: {len(lines)} lines")
+        if "_kernels" in f.relative_to(PKG).parts:
+            continue
+        for node in ast.walk(ast.parse(src)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = code_lines(node, lines)
+                if n > MAX_FUNCTION_CODE_LINES:
+                    bad.append(f"{f.relative_to(ROOT)}:{node.lineno} {node.name}: {n} lines of code")
+    assert not bad, "\n".join(bad)

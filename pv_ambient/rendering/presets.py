@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .._kernels import models
+
 
 @dataclass(frozen=True)
 class ModelSpec:
@@ -19,7 +21,7 @@ class ModelSpec:
     name : str
         The name users pass as ``model=``.
     kernel_id : int or None
-        The ray-cast kernel's model id (``pv_ambient._kernels.raycast``); None for models that are
+        The ray-cast kernel's model id (``pv_ambient._kernels.models``); None for models that are
         not a ray cast (``path_traced``) or stand for another (``auto``).
     lit : bool
         Whether the model uses the lights (and so builds light volumes).
@@ -42,11 +44,13 @@ class ModelSpec:
 #: The models, in the order documentation lists them. Ambient scattering's default radius (8 voxels,
 #: Beer–Lambert fronts) is the one closest to the path-traced reference (docs/trade.rst).
 MODEL_TABLE = (
-    ModelSpec("emission_absorption", 0, lit=False, title="emission-absorption"),
-    ModelSpec("ambient_occlusion", 1, lit=False, ball=True, radius_voxels=4.0, title="ambient occlusion"),
-    ModelSpec("single_scattering", 2, lit=True, title="single scattering"),
-    ModelSpec("ambient_scattering", 3, lit=True, ball=True, radius_voxels=8.0, title="ambient scattering"),
-    ModelSpec("diffusion", 4, lit=True, title="diffusion"),
+    ModelSpec("emission_absorption", models.EMISSION_ABSORPTION, lit=False, title="emission-absorption"),
+    ModelSpec("ambient_occlusion", models.AMBIENT_OCCLUSION, lit=False, ball=True, radius_voxels=4.0,
+              title="ambient occlusion"),
+    ModelSpec("single_scattering", models.SINGLE_SCATTERING, lit=True, title="single scattering"),
+    ModelSpec("ambient_scattering", models.AMBIENT_SCATTERING, lit=True, ball=True, radius_voxels=8.0,
+              title="ambient scattering"),
+    ModelSpec("diffusion", models.DIFFUSION, lit=True, title="diffusion"),
     ModelSpec("path_traced", None, lit=True, title="path traced"),
     ModelSpec("progressive", None, lit=True, ball=True, radius_voxels=8.0, title="progressive"),
     ModelSpec("auto", None, lit=True, ball=True, radius_voxels=8.0, title="auto"),

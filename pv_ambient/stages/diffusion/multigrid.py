@@ -1,7 +1,8 @@
 """Multigrid-preconditioned conjugate gradients of the diffusion stage (docs/diffusion.rst §2).
 
-Preconditioned conjugate gradients, matrix-free in Numba (``_kernels/diffusion.py``, which
-also assembles the face couplings and evaluates the flux limiter), float64 throughout. The
+Preconditioned conjugate gradients, matrix-free in Numba (the operator and smoother in
+``_kernels/diffusion_operator.py``, the transfers in ``_kernels/diffusion_multigrid.py``, the CG
+updates in ``_kernels/diffusion_cg.py``), float64 throughout. The
 default preconditioner is one symmetric V-cycle of an aggregation multigrid (2×2×2 aggregates,
 semi-coarsening on strongly anisotropic spacing; coarse couplings are the summed fine couplings
 across an aggregate interface halved along coarsened axes, absorption and boundary terms summed;

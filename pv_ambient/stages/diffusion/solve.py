@@ -85,7 +85,7 @@ D_MIN_REL = 1e-6
 def flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
     """Levermore–Pomraning D = λ(R)/σt' at the nodes, R = |∇φ − 3Q1|/(σt' φ), clipped to
     [d_min, d_max] (d_max: the vacuum floor's D); ∇φ as ``numpy.gradient`` (central differences,
-    one-sided on the box faces). The kernel: ``_kernels.diffusion.limiter_coefficients``."""
+    one-sided on the box faces). The kernel: ``_kernels.diffusion_system.limiter_coefficients``."""
     from ..._kernels.diffusion_system import limiter_coefficients
 
     out = np.empty(grid.shape)
@@ -275,34 +275,7 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
     maxiter = DEFAULT_MAXITER[preconditioner] if maxiter is None else check_int(maxiter, "maxiter", lo=1)
     max_outer = check_int(max_outer, "max_outer", lo=1)
     outer_tol = check_real(outer_tol, "outer_tol", lo=0.0, lo_open=True)
-    q0 = check_array(Q0, "Q0", ndim=(3, 4), dtype="float")  # float32 sources stay float32 until sliced
-    if q0.shape[:3] != shape:
-        raise ValueError(f"Q0 must have shape {shape} or {shape + ('C',)}, got {q0.shape}")
-    multi = q0.ndim == 4
-    C = q0.shape[3] if multi else 1
-    if alb.ndim == 4 and (not multi or alb.shape[3] != C):
-        if not multi:
-            raise ValueError(f"albedo has {alb.shape[3]} channels, so Q0 must have shape {shape + (alb.shape[3],)}, "
-                             f"got {q0.shape}")
-        raise ValueError(f"albedo has {alb.shape[3]} channels but Q0 has {C}")
-    qshape = shape + ((C, 3) if multi else (3,))
-    if Q1 is None:
-        q1 = None
-    else:
-        q1 = check_array(Q1, "Q1", ndim=(4, 5), dtype="float")
-        if q1.shape != qshape:
-            raise ValueError(f"Q1 must have shape {qshape} (matching Q0 {q0.shape}), got {q1.shape}")
-    if direction is not None:
-        R = np.asarray(direction, np.float64)
-        if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
-            raise ValueError("direction must be an orthonormal 3×3 matrix (columns: the index axes in world), "
-                             f"got {direction!r}")
-    else:
-        R = None
-    if x0 is not None:
-        x0 = check_array(x0, "x0", ndim=(3, 4))
-        if x0.shape != q0.shape:
-            raise ValueError(f"x0 must have the shape of phi {q0.shape}, got {x0.shape}")
+    q0, q1, x0, R, multi, C, qshape = _checked_sources(shape, alb, Q0, Q1, x0, direction)
     if sigma_floor is None:
         sigma_floor = SIGMA_FLOOR_REL / mean_chord(shape, sp, association)
     sigma_floor = check_real(sigma_floor, "sigma_floor", lo=0.0, lo_open=True)
@@ -385,6 +358,42 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
     return DiffusionSolution(phi=phi_out, flux=F_out, iterations=total_its, residual=worst, converged=conv_all,
                              power=power, solves=n_solves, outer_iterations=n_outer,
                              time=time.perf_counter() - t_start)
+
+
+def _checked_sources(shape, alb, Q0, Q1, x0, direction):
+    """The sources, start and direction of :func:`solve_in_medium` checked against the grid's
+    ``shape`` and the albedo ``alb``: ``(q0, q1, x0, R, multi, C, qshape)`` — ``multi`` when the
+    sources have a channel axis of ``C`` channels, ``qshape`` the flux's shape, ``R`` the index
+    axes in world (None: the identity)."""
+    q0 = check_array(Q0, "Q0", ndim=(3, 4), dtype="float")  # float32 sources stay float32 until sliced
+    if q0.shape[:3] != shape:
+        raise ValueError(f"Q0 must have shape {shape} or {shape + ('C',)}, got {q0.shape}")
+    multi = q0.ndim == 4
+    C = q0.shape[3] if multi else 1
+    if alb.ndim == 4 and (not multi or alb.shape[3] != C):
+        if not multi:
+            raise ValueError(f"albedo has {alb.shape[3]} channels, so Q0 must have shape {shape + (alb.shape[3],)}, "
+                             f"got {q0.shape}")
+        raise ValueError(f"albedo has {alb.shape[3]} channels but Q0 has {C}")
+    qshape = shape + ((C, 3) if multi else (3,))
+    if Q1 is None:
+        q1 = None
+    else:
+        q1 = check_array(Q1, "Q1", ndim=(4, 5), dtype="float")
+        if q1.shape != qshape:
+            raise ValueError(f"Q1 must have shape {qshape} (matching Q0 {q0.shape}), got {q1.shape}")
+    if direction is not None:
+        R = np.asarray(direction, np.float64)
+        if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+            raise ValueError("direction must be an orthonormal 3×3 matrix (columns: the index axes in world), "
+                             f"got {direction!r}")
+    else:
+        R = None
+    if x0 is not None:
+        x0 = check_array(x0, "x0", ndim=(3, 4))
+        if x0.shape != q0.shape:
+            raise ValueError(f"x0 must have the shape of phi {q0.shape}, got {x0.shape}")
+    return q0, q1, x0, R, multi, C, qshape
 
 
 def _proportional(a, s0, s1, a_prev, s0_prev, s1_prev):

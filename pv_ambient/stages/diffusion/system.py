@@ -87,7 +87,7 @@ def _boundary(grid, axis, side):
 
 def assemble(grid, sigma_a, D, Q0, Q1):
     """Couplings, absorption/boundary diagonal and right-hand side of one channel (float64).
-    Interior faces: ``_kernels.diffusion.assemble_faces``; box faces here."""
+    Interior faces: ``_kernels.diffusion_system.assemble_faces``; box faces here."""
     from ..._kernels.diffusion_system import assemble_faces
 
     shape = grid.shape
