@@ -152,8 +152,8 @@ def test_isotropic_phase_keeps_the_fluence_alone_and_renders_the_same():
             assert diffusion_light(phi, x, y, z, *d, 0.0) == want
     r = renderer(physical_grid())
     iso = render(r, "diffusion")
-    shapes = {r.cache[k].shape[3] for k in r.cache if k[0] == "diffusion"}
+    shapes = {r.cache[k][0].shape[3] for k in r.cache if k[0] == "diffusion"}
     assert shapes <= {1, 3} and shapes
     assert iso.max() > 0
     render(r, "diffusion", phase=0.5)
-    assert {r.cache[k].shape[3] for k in r.cache if k[0] == "diffusion" and k[3] == 0.5} <= {4, 12}
+    assert {r.cache[k][0].shape[3] for k in r.cache if k[0] == "diffusion" and k[3] == 0.5} <= {4, 12}
