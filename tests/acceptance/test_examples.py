@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted(p for p in (ROOT / "examples").rglob("*.py")
                   if not any(part.startswith("_") for part in p.relative_to(ROOT / "examples").parts))
 SAVED = re.compile(r"^saved (?P<path>.+\.png) \((?P<w>\d+)x(?P<h>\d+)\)$", re.MULTILINE)

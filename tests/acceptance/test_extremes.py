@@ -95,6 +95,8 @@ import pv_ambient as pa
 from pv_ambient.inputs.camera import Camera
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
+from ..helpers import scaled_scene
+
 SIZE = (12, 10)
 PT_SPP = 4
 
@@ -304,46 +306,6 @@ SCALE_ATOL_ALPHA = 1e-6
 SCALE_MEASURED = {"emission_absorption": 4e-8, "ambient_occlusion": 7e-8, "single_scattering": 7e-8,
                   "ambient_scattering/beer_lambert": 7e-8, "ambient_scattering/tube": 7e-8, "path_traced": 1.4e-7,
                   "diffusion": 7e-8, "diffusion/flux_limited": 7e-8, "diffusion/sweeps": 7e-8}
-
-
-def scaled_scene(kind, s):
-    """Scene ``kind`` ("outside" or "inside") with space scaled by ``s``."""
-    rng = np.random.default_rng(3)
-    if kind == "outside":
-        n = 12
-        h = 1.0 / (n - 1)
-        origin = np.array([-0.52, -0.47, -0.5])
-        grid = pv.ImageData(dimensions=(n,) * 3, spacing=(h * s,) * 3, origin=tuple(origin * s))
-        p = grid.points / s
-        base = np.clip(1.0 - np.linalg.norm(p, axis=1) / 0.55, 0, None) * (0.5 + rng.random(grid.n_points))
-        sigma = 6.0 * base
-        # the first light sits at the centre of the grid, index (5.5, 5.5, 5.5), and the directional
-        # light's x and y components tie: the light volumes' sweep choices must not hinge on rounding
-        lights = [PointLight(tuple(np.array([-0.02, 0.03, 0.0]) * s), intensity=0.05 * s * s),
-                  PointLight(tuple(np.array([-0.9, 0.4, 1.1]) * s), intensity=(2.0 * s * s, 1.5 * s * s, 1.0 * s * s)),
-                  DirectionalLight((0.6, 0.6, -0.4), irradiance=0.7)]
-        cam = Camera(tuple(np.array([0.7, -2.2, 0.9]) * s), tuple(np.array([0.02, 0.0, -0.01]) * s), (0, 0, 1),
-                     view_angle=40)
-        g, options = 0.6, {}
-    else:
-        n = 9
-        h = 0.125
-        origin = np.array([-0.5, -0.5, -0.5])
-        grid = pv.ImageData(dimensions=(n,) * 3, spacing=(h * s,) * 3, origin=tuple(origin * s))
-        sigma = 4.0 + 40.0 * rng.random(grid.n_points)  # ~45 optical depths across: ERT cuts rays
-        on_sample = origin + h * np.array([3, 5, 4])
-        lights = [PointLight(tuple(on_sample * s), intensity=0.02 * s * s),
-                  PointLight(tuple(np.array([0.05, -0.3, 0.1]) * s), intensity=(0.01 * s * s, 0.02 * s * s, 0.0))]
-        cam = Camera(tuple(np.array([0.06, -0.21, 0.03]) * s), tuple(np.array([0.1, 0.6, 0.0]) * s), (0, 0, 1),
-                     view_angle=80)
-        g, options = 0.3, {"radius": 0.3 * s}
-    grid["sigma_t"] = (sigma / s).astype(np.float32)
-    grid["albedo"] = np.tile(np.array([0.9, 0.8, 0.6], np.float32), (grid.n_points, 1))
-    grid["emission"] = np.tile(np.array([0.2, 0.1, 0.05], np.float32), (grid.n_points, 1))
-    r = pa.Renderer(grid, transfer_function=pa.TransferFunction.physical(), lights=lights)
-    # the default quality (light grid: docs/ambient_scattering.rst §3's factor from σt·h); g = 0.6 and 0.3 at
-    # "balanced" table quality are slices shipped with the package (nothing to compute)
-    return r, cam, g, {"quality": "balanced", "table_quality": "balanced", **options}
 
 
 _SCALE_REFERENCE = {}

@@ -10,7 +10,7 @@ import pytest
 import pv_ambient as pa
 from pv_ambient.inputs.camera import Camera
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import scenes  # noqa: E402
 
 N = 16

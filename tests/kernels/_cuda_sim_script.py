@@ -1,4 +1,4 @@
-"""Run by tests/test_cuda.py in a subprocess with NUMBA_ENABLE_CUDASIM=1 (set before numba is
+"""Run by tests/kernels/test_cuda.py in a subprocess with NUMBA_ENABLE_CUDASIM=1 (set before numba is
 imported): every model on backend="cuda" (Numba's CUDA simulator) against backend="cpu", through
 the API and through the CLI's JSON scene. Prints one JSON object."""
 import json

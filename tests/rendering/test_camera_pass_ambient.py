@@ -4,47 +4,14 @@ reduce to, caching, the ``auto`` rules. Accuracy against the path-traced referen
 
 import numpy as np
 import pytest
-import pyvista as pv
 
-import pv_ambient as pa
 from pv_ambient.inputs.camera import Camera
 from pv_ambient.inputs.phase import as_phase
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
 from pv_ambient.rendering.request import resolve_radius
 
-CAM = Camera((0.2, -4.0, 0.3), (0, 0, 0), (0, 0, 1), view_angle=35)
-SIZE = (24, 20)
-
-
-def physical_grid(n=17, sigma=3.0, albedo=0.9, emission=(0.0, 0.0, 0.0), noise=True, seed=0):
-    """A cloud-like physical medium on [−1, 1]³: σt (1/world unit), RGB albedo, emission."""
-    g = pv.ImageData(dimensions=(n, n, n), spacing=(2 / (n - 1),) * 3, origin=(-1, -1, -1))
-    rng = np.random.default_rng(seed)
-    p = g.points
-    base = np.clip(1.0 - np.linalg.norm(p, axis=1) / 1.1, 0, None)
-    if noise:
-        base *= 0.5 + rng.random(g.n_points)
-    g["sigma_t"] = (sigma * base).astype(np.float32)
-    g["albedo"] = np.tile(np.broadcast_to(np.asarray(albedo, np.float32), (3,)), (g.n_points, 1))
-    g["emission"] = np.tile(np.asarray(emission, np.float32), (g.n_points, 1))
-    return g
-
-
-LIGHTS = [PointLight((0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0)), DirectionalLight((0.2, 0.3, -1.0), irradiance=0.5)]
-
-
-def renderer(grid, lights=LIGHTS):
-    return pa.Renderer(grid, transfer_function=pa.TransferFunction.physical(), lights=lights)
-
-
-def render(r, model, **kw):
-    kw.setdefault("quality", "preview")
-    return r.render(camera=CAM, window_size=SIZE, model=model, **kw).radiance.astype(np.float64)
-
-
-def rel(a, b):
-    return np.abs(a - b).max() / max(np.abs(b).max(), 1e-30)
+from ..helpers import CAM, LIGHTS, SIZE, physical_grid, rel, render, renderer
 
 
 @pytest.mark.parametrize("propagation", ["beer_lambert", "tube"])

@@ -11,7 +11,7 @@ import pv_ambient as pa
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 from pv_ambient.rendering import presets
 
-from .test_ambient import CAM, SIZE, physical_grid
+from ..helpers import CAM, SIZE, physical_grid
 
 LIGHTS = [PointLight((0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0)), DirectionalLight((0.2, 0.3, -1.0), irradiance=0.5)]
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pv_ambient.inputs.lights import PointLight
-from .test_ambient import LIGHTS, physical_grid, rel, render, renderer
+from ..helpers import LIGHTS, physical_grid, rel, render, renderer
 
 
 def test_albedo_zero_is_single_scattering():
@@ -88,12 +88,12 @@ def test_vacuum_floor_against_path_tracing(monkeypatch):
 
 
 def test_flux_limited_converges_with_a_light_inside():
-    """A point light at the centre of a small medium (tests/test_extremes.py's scale scene): the
+    """A point light at the centre of a small medium (tests/acceptance/test_extremes.py's scale scene): the
     limiter's lagged passes need more than the earlier default of 10 there (which warned); with
     the default of 20 they converge without a warning."""
     import warnings
 
-    from .test_extremes import scaled_scene
+    from ..helpers import scaled_scene
 
     from pv_ambient.stages import diffusion as dm
 

@@ -645,7 +645,7 @@ def test_depth_one_reference_equals_single_scattering_model():
     3 standard errors + the model's step bias (measured as the step halves). Per pixel, at a
     false-alarm rate of 0.27 % per pixel, so ≥ 97 % of the 256 pixels must pass (and the image mean
     must agree within 3 standard errors + bias)."""
-    from .test_ambient import CAM, physical_grid, renderer
+    from ..helpers import CAM, physical_grid, renderer
 
     r = renderer(physical_grid(n=17, sigma=3.0, albedo=0.9))
     h = float(np.min(r.geometry.spacing))
@@ -946,7 +946,7 @@ def test_angles_about_the_light_follow_the_mixture_density(sig_vertex, sig_light
 def test_equiangular_sampling_is_scale_free(s):
     # Space scaled by s (σt by 1/s, intensities by s², the clamp by s): every decision of the
     # equiangular and direction sampling is dimensionless, so with the same seed the same random
-    # numbers make the same image up to float32 rounding of σt (as tests/test_extremes.py checks for
+    # numbers make the same image up to float32 rounding of σt (as tests/acceptance/test_extremes.py checks for
     # the other models). A fixed floor of 1e-20 world units once switched the sampling off at 1e-20.
     def image(s):
         light = np.array([0.1, -0.05, 0.2]) * s
