@@ -1,6 +1,7 @@
 """Scenes shared by test files in several folders: a cloud-like physical medium with two lights
 seen by one camera (the camera-pass models, the path tracer), and the scale-invariance scenes of
-tests/acceptance/test_extremes.py (also the diffusion model's light-inside case)."""
+tests/acceptance/test_extremes.py (also the diffusion model's light-inside case), and a small JSON
+scene file (the scene format, the CLI, the request's memory check)."""
 
 import numpy as np
 import pyvista as pv
@@ -81,3 +82,14 @@ def scaled_scene(kind, s):
     # the default quality (light grid: docs/ambient_scattering.rst §3's factor from σt·h); g = 0.6 and 0.3 at
     # "balanced" table quality are slices shipped with the package (nothing to compute)
     return r, cam, g, {"quality": "balanced", "table_quality": "balanced", **options}
+
+
+def scene_file(tmp_path, **extra):
+    """A JSON scene file in ``tmp_path``: a 12³ cloud, single scattering, 16×12, with ``extra`` keys."""
+    import json
+
+    scene = {"version": 1, "volume": {"dataset": "cloud", "n": 12}, "model": "single_scattering",
+             "image": {"width": 16, "height": 12}, **extra}
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    return path

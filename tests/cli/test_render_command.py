@@ -12,6 +12,8 @@ import pv_ambient as pa
 from pv_ambient import cli
 from pv_ambient.scene import load_scene, parse_scene, read_scene, render_scene, scene_options
 
+from ..helpers import scene_file
+
 pv = pytest.importorskip("pyvista")
 
 CAMERA = {"position": [0.0, -5.0, 0.0], "focal_point": [0.0, 0.0, 0.0], "view_up": [0.0, 0.0, 1.0],
@@ -180,3 +182,47 @@ def test_cli_denoise_without_pyoidn_is_one_line_before_any_work(tmp_path, capsys
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "pv_ambient[denoise]" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_cli_png_of_a_lit_model_is_auto_exposed_and_the_npy_is_the_radiance(tmp_path):
+    """A 1 W/sr point light 300 units away: black PNG in 0.2.0, visible now; the .npy unchanged."""
+    from PIL import Image
+
+    from pv_ambient.cli import main
+
+    path = scene_file(tmp_path, lights=[{"kind": "point", "position": [0, 0, 300], "intensity": 1.0}])
+    assert main(["render", str(path), "-o", str(tmp_path / "o.png"), "--radiance", str(tmp_path / "o.npy")]) == 0
+    rad = np.load(tmp_path / "o.npy")
+    assert 0 < float(rad.max()) < 1e-4
+    png = np.asarray(Image.open(tmp_path / "o.png"))
+    assert int(png.max()) >= 200
+    assert main(["render", str(path), "-o", str(tmp_path / "e.png"), "--exposure", "auto"]) == 0
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "e.png")), png)
+
+
+def test_cli_output_extension_is_checked_before_any_work(tmp_path, capsys):
+    """Why: ``-o out.jpg`` was rejected only after an 18 s render (here the volume does not even exist)."""
+    import json
+
+    from pv_ambient.cli import main
+
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps({"version": 1, "volume": "missing.vti"}))
+    assert main(["render", str(path), "-o", str(tmp_path / "out.jpg")]) == 2
+    err = capsys.readouterr().err
+    assert "-o/--output must end in .png, .npy, .npz" in err and "missing.vti" not in err
+    assert main(["render", str(path), "-o", str(tmp_path / "out.png"), "--radiance", "r.png"]) == 2
+    assert "--radiance must end in .npy" in capsys.readouterr().err
+
+
+def test_cli_ctrl_c_exits_130_with_one_line(tmp_path, capsys, monkeypatch):
+    from pv_ambient import scene as scene_module
+    from pv_ambient.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(scene_module, "render_scene", interrupted)
+    assert main(["render", str(scene_file(tmp_path)), "-o", str(tmp_path / "o.png")]) == 130
+    err = capsys.readouterr().err
+    assert err.strip() == "pv-ambient: interrupted"

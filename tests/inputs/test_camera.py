@@ -3,6 +3,8 @@ import numpy as np
 import pytest
 import pyvista as pv
 
+import pv_ambient as pa
+from pv_ambient import datasets
 from pv_ambient.inputs.camera import Camera, as_camera, default_camera
 
 
@@ -112,3 +114,30 @@ def pa_as_camera(pl):
     from pv_ambient.inputs.camera import as_camera
 
     return as_camera(pl)
+
+
+def test_view_up_parallel_to_the_view_is_a_clear_error():
+    """Already an error on 65d2e28 (with numpy reprs in the message); kept, and the message cleaned."""
+    with pytest.raises(ValueError, match=r"view_up \(0.0, 0.0, 1.0\) is parallel to the view direction "
+                                         r"\(0.0, 0.0, -1.0\): give a view_up across the view"):
+        pa.render(datasets.cloud(n=12), window_size=(8, 8), camera=[(0, 0, 5), (0, 0, 0), (0, 0, 1)])
+
+
+@pytest.mark.parametrize("view", ["iso", "xy", "xz", "yz", "yx", "zx", "zy"])
+def test_camera_strings_are_pyvistas(view):
+    """Why: ``camera="iso"`` (PyVista's camera strings) was rejected."""
+    import pyvista as pv
+
+    grid = datasets.cloud(n=12)
+    res = pa.render(grid, camera=view, window_size=(12, 10))
+    pl = pv.Plotter(off_screen=True)
+    pl.add_mesh(grid.outline())
+    pl.camera_position = view
+    pl.reset_camera(bounds=grid.bounds)
+    ours, theirs = res.camera, pl.camera
+    for a, b in ((ours.position, theirs.position), (ours.focal_point, theirs.focal_point),
+                 (ours.view_up, theirs.up)):
+        np.testing.assert_allclose(a, b, atol=1e-9)
+    pl.close()
+    with pytest.raises(ValueError, match=r"camera 'top' is not one of PyVista's camera strings"):
+        pa.render(grid, camera="top", window_size=(8, 8))

@@ -270,3 +270,27 @@ def test_progressive_denoise_takes_even_and_odd_passes_as_its_halves(scene, monk
     np.testing.assert_allclose(meta["held_out_z"], pm["held_out_z"], rtol=1e-4, atol=1e-6)
     np.testing.assert_allclose(vol.volume_result.radiance, shown, rtol=1e-5, atol=1e-6)
     pl.close()
+
+
+def test_add_ambient_volume_keeps_the_plotter_background():
+    """Why: the plane painted the plotter's background black (PyVista's white theme lost its title)."""
+    import pyvista as pv
+
+    grid = datasets.cloud(n=12)
+    pl = pv.Plotter(off_screen=True, window_size=(40, 30))
+    pl.set_background("white")
+    vol = pa.add_ambient_volume(pl, grid, model="single_scattering")
+    shot = pl.screenshot(return_img=True)
+    assert shot[0, 0].tolist() == [255, 255, 255] and shot[-1, -1].tolist() == [255, 255, 255]
+    # where the volume covers a pixel, the background shows through by its transmittance: D(L) + T·B
+    res, shown = vol.volume_result, vol.result.to_uint8(**vol.display)
+    expect = np.clip(np.round(res.to_uint8(exposure=vol.display["exposure"]).astype(float)
+                              + 255.0 * (1.0 - res.alpha[..., None])), 0, 255)
+    assert np.abs(shown.astype(float) - expect).max() <= 1.0
+    pl.close()
+    # background= still paints that radiance
+    pl = pv.Plotter(off_screen=True, window_size=(40, 30))
+    pl.set_background("white")
+    pa.add_ambient_volume(pl, grid, background=(0.0, 0.0, 0.0))
+    assert pl.screenshot(return_img=True)[0, 0].tolist() == [0, 0, 0]
+    pl.close()

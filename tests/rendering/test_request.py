@@ -9,6 +9,8 @@ from pv_ambient.rendering.presets import QUALITY_PRESETS, light_resolution_for
 from pv_ambient.rendering.request import resolve_radius
 from pv_ambient.stages.propagation import default_factor
 
+from ..helpers import scene_file
+
 CAM = pa.Camera((0, -4, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
 
 
@@ -92,3 +94,95 @@ def test_radius_in_voxels_world_units_and_errors():
         resolve_radius("3 cm", "ambient_scattering", spacing)
     with pytest.raises(ValueError, match="radius"):
         resolve_radius(-1.0, "ambient_scattering", spacing)
+
+
+def test_lights_empty_is_black_with_a_warning_naming_the_cause():
+    grid = datasets.cloud(n=16)
+    with pytest.warns(UserWarning, match=r"rendered black: no lights were given"):
+        res = pa.render(grid, window_size=(16, 12), model="ambient_scattering", lights=())
+    assert float(res.radiance.max()) == 0.0 and float(res.alpha.max()) > 0.5
+    with pytest.warns(UserWarning, match="none of the 1 lights reaches the volume"):
+        pa.render(grid, window_size=(16, 12), model="single_scattering", lights=[pa.PointLight((3, 3, 3), 0.0)])
+
+
+def test_lights_given_to_a_model_that_ignores_them_warn():
+    """Why: ``pa.render(grid, lights=[light])`` silently used emission–absorption and dropped the light."""
+    with pytest.warns(UserWarning, match=r"1 light given but model='emission_absorption' does not use lights"):
+        pa.render(datasets.cloud(n=12), window_size=(8, 8), lights=[pa.PointLight((2, 2, 2), 3.0)])
+
+
+def test_options_of_another_model_warn():
+    grid = datasets.cloud(n=12)
+    with pytest.warns(UserWarning, match=r"samples_per_pixel not used: model='diffusion' does not use it"):
+        pa.render(grid, window_size=(8, 8), model="diffusion", samples_per_pixel=64)
+    with pytest.warns(UserWarning, match=r"propagation not used: model='auto' chose 'diffusion'"):
+        pa.render(grid, window_size=(8, 8), model="auto", propagation="tube")
+
+
+def test_window_size_that_cannot_fit_is_a_clear_error_before_any_work(tmp_path, capsys):
+    """Why: ``(1e6, 1e6)`` ended in a numpy MemoryError traceback (through the CLI) after the work began."""
+    import time
+
+    from pv_ambient.cli import main
+
+    t = time.perf_counter()
+    with pytest.raises(MemoryError, match=r"window_size=\(1000000, 1000000\) needs about .* bytes\)"):
+        pa.render(datasets.cloud(n=12), window_size=(10**6, 10**6), model="ambient_scattering")
+    path = scene_file(tmp_path, image={"width": 10**6, "height": 10**6})
+    assert main(["render", str(path), "-o", str(tmp_path / "o.png")]) == 2
+    assert "window_size=(1000000, 1000000) needs about" in capsys.readouterr().err
+    assert time.perf_counter() - t < 5.0
+
+
+def test_2d_and_single_point_grids_are_clear_errors():
+    """Why: a (32, 32, 1) grid or a single voxel rendered fully transparent, without a word."""
+    import pyvista as pv
+
+    g = pv.ImageData(dimensions=(32, 32, 1))
+    g["v"] = np.ones(g.n_points, np.float32)
+    with pytest.raises(ValueError, match=r"the grid is 2-D \(dimensions \(32, 32, 1\): one point along z\).*"
+                                         r"dimensions \(32, 32, 2\) holding the layer twice"):
+        pa.render(g, model="ambient_scattering")
+    one = pv.ImageData(dimensions=(1, 1, 1))
+    one["v"] = np.ones(1, np.float32)
+    with pytest.raises(ValueError, match=r"single point or cell \(dimensions \(1, 1, 1\)\)"):
+        pa.render(one)
+    # the remedy the message names renders a slab one spacing thick
+    slab = pv.ImageData(dimensions=(32, 32, 2), spacing=(1.0, 1.0, 1.0))
+    slab["v"] = np.ones(slab.n_points, np.float32)
+    res = pa.render(slab, window_size=(16, 16), camera="xy",
+                    transfer_function=pa.TransferFunction(clim=(0, 1), density_scale=2.0, opacity=[1.0, 1.0]))
+    assert float(res.alpha[8, 8]) == pytest.approx(1 - np.exp(-2.0), abs=0.02)
+
+
+def test_delayed_stage_bar_appears_only_after_two_seconds(monkeypatch, capsys):
+    import time
+
+    from pv_ambient.rendering import request
+
+    monkeypatch.delenv("PYTEST_CURRENT_TEST")
+    monkeypatch.setattr(request, "PROGRESS_DELAY", 0.2)
+    with request.stage_bar(None, "quick stage"):
+        pass
+    assert "quick stage" not in capsys.readouterr().err
+    with request.stage_bar(None, "slow stage") as bar:
+        time.sleep(0.8)
+        bar.update()
+    assert "slow stage" in capsys.readouterr().err
+
+
+def test_compile_notice_is_one_line_once(monkeypatch, capsys):
+    """Why: the first call of each model compiled for ~9 s without a word."""
+    from types import SimpleNamespace
+
+    from pv_ambient._kernels import raycast
+    from pv_ambient.rendering import request
+
+    fresh = SimpleNamespace(signatures=[], _cache=SimpleNamespace(_cache_file=SimpleNamespace(
+        _index_path="/nonexistent/raycast.nbi")))
+    monkeypatch.setattr(raycast, "raycast_image", fresh)
+    monkeypatch.setattr(request, "_NOTICED", [])
+    request.compile_notice("ambient_scattering")
+    request.compile_notice("diffusion")
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pv_ambient: compiling the rendering kernels")
