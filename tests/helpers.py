@@ -1,7 +1,9 @@
 """Scenes shared by test files in several folders: a cloud-like physical medium with two lights
 seen by one camera (the camera-pass models, the path tracer), and the scale-invariance scenes of
-tests/acceptance/test_extremes.py (also the diffusion model's light-inside case), and a small JSON
-scene file (the scene format, the CLI, the request's memory check)."""
+tests/acceptance/test_extremes.py (also the diffusion model's light-inside case), and JSON scene
+files (the scene format, the CLI, the request's memory check)."""
+
+import json
 
 import numpy as np
 import pyvista as pv
@@ -84,12 +86,20 @@ def scaled_scene(kind, s):
     return r, cam, g, {"quality": "balanced", "table_quality": "balanced", **options}
 
 
+#: The camera of the scene-file tests, in the JSON form.
+SCENE_CAMERA = {"position": [0.0, -5.0, 0.0], "focal_point": [0.0, 0.0, 0.0], "view_up": [0.0, 0.0, 1.0],
+                "view_angle": 30.0, "parallel_projection": False, "parallel_scale": 1.0}
+
+
+def write_scene(tmp_path, scene, name="scene.json"):
+    """``scene`` (a dict) written as ``tmp_path/name`` in JSON; returns the path."""
+    p = tmp_path / name
+    p.write_text(json.dumps(scene))
+    return p
+
+
 def scene_file(tmp_path, **extra):
     """A JSON scene file in ``tmp_path``: a 12³ cloud, single scattering, 16×12, with ``extra`` keys."""
-    import json
-
     scene = {"version": 1, "volume": {"dataset": "cloud", "n": 12}, "model": "single_scattering",
              "image": {"width": 16, "height": 12}, **extra}
-    path = tmp_path / "scene.json"
-    path.write_text(json.dumps(scene))
-    return path
+    return write_scene(tmp_path, scene)
