@@ -1,7 +1,8 @@
 """The package's structure (docs/architecture.rst): layers import downward only, no import cycle,
 no module imports another's private name, stages never take the renderer, the array core imports
-neither pyvista nor vtk, every sub-package is installed, and a pickled Renderer renders the same
-image in another process (what a Dask worker does)."""
+neither pyvista nor vtk (and renders every camera-pass model with both blocked), every sub-package
+is installed, and a pickled Renderer renders the same image in another process (what a Dask worker
+does)."""
 import ast
 import inspect
 import os
@@ -146,6 +147,30 @@ def test_array_core_imports_neither_pyvista_nor_vtk():
             if top in ARRAY_CORE or line in eager or target.startswith("pyvista.plotting") or "Plotter" in names:
                 bad.append(f"{f.relative_to(ROOT)}:{line} imports {target}")
     assert not bad, "\n".join(bad)
+
+
+def test_array_core_without_pyvista_and_vtk():
+    code = r"""
+import sys
+for name in ("pyvista", "vtk", "vtkmodules"):
+    sys.modules[name] = None  # import fails
+import numpy as np
+import pv_ambient as pa
+from pv_ambient.inputs.grid import Volume
+x, y, z = np.meshgrid(*(np.linspace(-1, 1, 12),) * 3, indexing="ij")
+vol = Volume(np.exp(-4 * (x * x + y * y + z * z)).astype(np.float32), spacing=(2 / 11,) * 3, origin=(-1,) * 3)
+tf = pa.TransferFunction.from_table([0.0, 1.0], sigma_t=[0.0, 8.0], albedo=0.9, color=[[0, 0, 0], [1, 1, 1]])
+r = pa.Renderer(vol, transfer_function=tf, lights=[pa.PointLight((0, 0, 2.0), 4.0)])
+cam = pa.Camera((0, -4, 0), (0, 0, 0), (0, 0, 1))
+for model in ("emission_absorption", "single_scattering", "ambient_scattering", "diffusion"):
+    res = r.render(camera=cam, window_size=(8, 8), model=model, quality="preview")
+    assert res.radiance.max() > 0, model
+loaded = sorted(m for m in sys.modules if m.split(".")[0] in ("pyvista", "vtk", "vtkmodules") and sys.modules[m])
+print("OK", loaded, hasattr(pa, "add_ambient_volume"))
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.strip() == "OK [] False"
 
 
 def test_no_stage_takes_the_renderer():

@@ -110,31 +110,6 @@ def test_flux_limited_converges_with_a_light_inside():
     assert sol.converged
 
 
-def test_renders_run_blas_on_one_thread_and_restore_it(monkeypatch):
-    """A multi-threaded BLAS keeps its workers spinning after each call; during a render they would
-    compete with the Numba kernels (pv_ambient.backend.blas_one_thread). The solve's BLAS calls see
-    one thread; the caller's count is back afterwards."""
-    import scipy.linalg  # noqa: F401  (SciPy's BLAS loaded: the libraries below are those of the render)
-    from threadpoolctl import threadpool_info, threadpool_limits
-
-    import pv_ambient.stages.diffusion as diffusion_stage
-
-    seen = []
-    solve = diffusion_stage.solve_for_light
-
-    def spy(*args, **kwargs):
-        seen.extend(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
-        return solve(*args, **kwargs)
-
-    monkeypatch.setattr(diffusion_stage, "solve_for_light", spy)
-    with threadpool_limits(limits=2, user_api="blas"):
-        before = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
-        render(renderer(physical_grid(n=9)), "diffusion", flux_limited=True)
-        after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
-    assert seen and set(seen) == {1}  # one solve per light, each on one BLAS thread
-    assert after == before and max(before) == 2  # (a BLAS that had 2 threads: the limit is visible)
-
-
 def test_isotropic_phase_keeps_the_fluence_alone_and_renders_the_same():
     """Why: with mean cosine 0 the flux term of the radiance vanishes, so the renderer keeps φ alone
     (a quarter of the memory the march reads). The kernel must read the φ-only layout as it reads φ

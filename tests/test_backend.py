@@ -1,0 +1,79 @@
+"""Tests pv_ambient/backend.py: the one check of a backend's name, the CUDA backend's errors and
+``auto``'s fallback when CUDA cannot run (no package, no device, a NumPy clash), BLAS held to one
+thread during a render."""
+import sys
+import types
+
+import numpy as np
+import pytest
+
+import pv_ambient as pa
+from pv_ambient import backend as bk
+from pv_ambient import datasets
+
+from .helpers import physical_grid, render, renderer
+
+
+def test_bad_backend_name():
+    with pytest.raises(ValueError, match="backend"):
+        pa.Renderer(datasets.cloud(n=8), backend="gpu")
+
+
+def test_missing_package_error(monkeypatch):
+    monkeypatch.delenv("NUMBA_ENABLE_CUDASIM", raising=False)
+    monkeypatch.setitem(sys.modules, "numba_cuda", None)  # import numba_cuda -> ImportError
+    with pytest.raises(ImportError, match=r"numba-cuda package, which is not installed: pip install \"pv_ambient\[cuda\]\""):
+        pa.render(datasets.cloud(n=8), window_size=(4, 4), backend="cuda")
+    # auto falls back to the CPU silently and says so in the metadata
+    res = pa.render(datasets.cloud(n=8), window_size=(4, 4), backend="auto")
+    assert res.metadata["backend"] == "cpu"
+
+
+def test_no_device_error(monkeypatch):
+    from numba import cuda
+
+    monkeypatch.delenv("NUMBA_ENABLE_CUDASIM", raising=False)
+    monkeypatch.setitem(sys.modules, "numba_cuda", types.ModuleType("numba_cuda"))
+    monkeypatch.setattr(cuda, "is_available", lambda: False)
+    with pytest.raises(RuntimeError, match="numba-cuda is installed but no CUDA device is visible"):
+        pa.Renderer(datasets.cloud(n=8), backend="cuda").render(window_size=(4, 4))
+    assert bk.resolve_backend("auto") == "cpu"
+
+
+def test_numba_cuda_that_needs_numpy_row_stack(monkeypatch):
+    # numba-cuda 0.30.4 compiled kernels through numpy.row_stack, which NumPy 2.5 removed (seen on an
+    # H100: benchmarks/results/gpu.txt): backend='cuda' says so before any work, 'auto' takes the CPU
+    monkeypatch.delenv("NUMBA_ENABLE_CUDASIM", raising=False)
+    fake = types.ModuleType("numba_cuda")
+    fake.__version__ = "0.30.4"
+    monkeypatch.setitem(sys.modules, "numba_cuda", fake)
+    monkeypatch.delattr(np, "row_stack", raising=False)
+    with pytest.raises(ImportError, match=r"numba-cuda 0\.30\.4 compiles kernels through numpy\.row_stack.*numpy<2\.5"):
+        pa.render(datasets.cloud(n=8), window_size=(4, 4), backend="cuda")
+    assert bk.resolve_backend("auto") == "cpu"
+    assert bk.numpy_clash("0.31.0") is None and bk.numpy_clash(None) is None
+
+
+def test_renders_run_blas_on_one_thread_and_restore_it(monkeypatch):
+    """A multi-threaded BLAS keeps its workers spinning after each call; during a render they would
+    compete with the Numba kernels (pv_ambient.backend.blas_one_thread). The solve's BLAS calls see
+    one thread; the caller's count is back afterwards."""
+    import scipy.linalg  # noqa: F401  (SciPy's BLAS loaded: the libraries below are those of the render)
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import pv_ambient.stages.diffusion as diffusion_stage
+
+    seen = []
+    solve = diffusion_stage.solve_for_light
+
+    def spy(*args, **kwargs):
+        seen.extend(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(diffusion_stage, "solve_for_light", spy)
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+        render(renderer(physical_grid(n=9)), "diffusion", flux_limited=True)
+        after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+    assert seen and set(seen) == {1}  # one solve per light, each on one BLAS thread
+    assert after == before and max(before) == 2  # (a BLAS that had 2 threads: the limit is visible)
