@@ -1,5 +1,7 @@
-"""Interactive mode while the camera is dragged: reduced resolution (never below half the window per
-axis), the full-resolution render when the camera rests (issue 16's drag mode)."""
+"""Tests pv_ambient/pyvista/plotter.py: add_ambient_volume's picture pixel-exact in the plotter over its
+background, and the interactive AmbientVolume — re-rendered on camera moves, at reduced resolution
+(never below half the window per axis) while the camera is dragged, at full resolution when it
+rests (issue 16's drag mode), refined while it rests (path_traced, progressive)."""
 
 import os
 
@@ -15,8 +17,9 @@ from pv_ambient.pyvista.plane import texture_image  # noqa: E402
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS  # noqa: E402
 from pv_ambient.stages.refine import refined_picture  # noqa: E402
 
+from .helpers import CAMERA, plotter  # noqa: E402
+
 SIZE = (63, 47)  # odd sizes: the reduced size rounds up
-CAMERA = pa.Camera((2.5, -3.5, 1.5), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=30.0)
 
 
 @pytest.fixture(scope="module")
@@ -26,18 +29,10 @@ def scene():
     return grid, tf, [pa.PointLight((1.0, -1.5, 1.2), intensity=4.0)]
 
 
-def _plotter():
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")  # the picture is then the volume alone (no plotter background behind it)
-    CAMERA.to_vtk(pl.camera)
-    pl.camera_set = True
-    return pl
-
-
 @pytest.mark.parametrize("model,fraction", [("single_scattering", 0.5), ("ambient_scattering", 0.75)])
 def test_drag_renders_reduced_and_the_resting_frame_is_a_normal_render(scene, model, fraction):
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model=model, interactive=True,
                                 interactive_resolution=fraction)
     assert vol.result.window_size == SIZE and not vol.moving
@@ -64,7 +59,7 @@ def test_drag_renders_reduced_and_the_resting_frame_is_a_normal_render(scene, mo
 
 def test_not_interactive_ignores_the_rate(scene):
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf)
     assert vol.interactive_step == 16  # the default cap of the drag step (the 256³ drag's 10 fps)
     pl.ren_win.SetDesiredUpdateRate(15.0)
@@ -80,7 +75,7 @@ def test_not_interactive_ignores_the_rate(scene):
 def test_interactive_options_are_checked(scene, option, bad):
     """interactive_resolution in [0.5, 1]; interactive_step a power of two ≥ 1."""
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     with pytest.raises(ValueError, match=option):
         pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True, **{option: bad})
     pl.close()
@@ -92,7 +87,7 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
     with jittered ray starts once the step is longer than the resting one; fast frames halve the
     step again; the resting frame is the normal render (resting step, no jitter)."""
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="ambient_scattering",
                                 interactive=True, interactive_step=4)
     base = vol.renderer.default_step()
@@ -170,7 +165,7 @@ def test_drag_frames_start_no_progress_bar_and_move_the_plane(scene, monkeypatch
     from pv_ambient.rendering import request
 
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="single_scattering",
                                 interactive=True)
     monkeypatch.delenv("PYTEST_CURRENT_TEST")  # outside pytest a render stage starts a delayed bar
@@ -201,7 +196,7 @@ def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
     resting frame adds ``interactive_samples`` residual samples, each refinement as many again with
     the next seed, their mean the same as one render of all of them."""
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="progressive", interactive=True,
                                 interactive_resolution=1.0, samples_per_pixel=6, interactive_samples=2)
     r = vol.renderer
@@ -251,7 +246,7 @@ def test_progressive_denoise_takes_even_and_odd_passes_as_its_halves(scene, monk
     monkeypatch.setattr(denoise, "denoise_radiance", blur)
     monkeypatch.setattr(refine, "HELD_OUT_MIN_SAMPLES", 2)  # a choice from these few samples (default 16)
     grid, tf, lights = scene
-    pl = _plotter()
+    pl = plotter(SIZE)
     vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="progressive", interactive=True,
                                 interactive_resolution=1.0, samples_per_pixel=6, interactive_samples=2, denoise=True)
     r = vol.renderer
@@ -293,4 +288,78 @@ def test_add_ambient_volume_keeps_the_plotter_background():
     pl.set_background("white")
     pa.add_ambient_volume(pl, grid, background=(0.0, 0.0, 0.0))
     assert pl.screenshot(return_img=True)[0, 0].tolist() == [0, 0, 0]
+    pl.close()
+
+
+def test_add_ambient_volume_shows_render_pixel_exactly(cloud):
+    grid, r = cloud
+    tf = r.transfer_function
+    for display in ({}, {"exposure": 1.0, "tonemap": "reinhard", "srgb": True}):
+        pl = plotter((64, 48))
+        actor, res = pa.add_ambient_volume(pl, grid, transfer_function=tf, display=display)
+        ref = pa.render(grid, transfer_function=tf, camera=CAMERA, window_size=(64, 48)).to_uint8(**display)
+        # what the plane shows (its texture) and what the plotter's screenshot shows
+        assert np.array_equal(texture_image(actor.GetTexture()), ref)
+        assert np.array_equal(pl.screenshot()[..., :3], ref)
+        assert np.array_equal(res.to_uint8(**display), ref)
+        pl.close()
+
+
+def test_interactive_rerenders_on_camera_moves(cloud):
+    grid, r = cloud
+    tf = r.transfer_function
+    size = (64, 48)
+    pl = plotter(size)
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True)
+    assert vol.observer is not None and vol.renders == 1
+    pl.show(auto_close=False)
+    pl.render()
+    assert vol.renders == 1  # no camera change, no re-render
+    before = texture_image(vol.actor.GetTexture())
+    moves = [lambda c: c.Azimuth(35.0), lambda c: c.Elevation(20.0), lambda c: c.Zoom(1.4)]
+    for k, move in enumerate(moves, start=2):
+        move(pl.camera)
+        pl.render()
+        assert vol.renders == k
+        tex = texture_image(vol.actor.GetTexture())
+        assert not np.array_equal(tex, before)
+        ref = pa.render(grid, transfer_function=tf, camera=pl.camera, window_size=size).to_uint8()
+        assert np.array_equal(tex, ref)
+        assert np.array_equal(pl.screenshot()[..., :3], ref)  # the plane moved with the camera
+        before = tex
+    vol.remove_observer()
+    pl.camera.Azimuth(20.0)
+    pl.render()
+    assert vol.renders == 4 and np.array_equal(texture_image(vol.actor.GetTexture()), before)
+    pl.close()
+
+
+def test_path_traced_interactive_refines_while_the_camera_rests():
+    grid = datasets.cloud(n=16)
+    light = pa.PointLight((1.5, 1.5, 1.5), 4.0)
+    size = (24, 16)
+    pl = plotter(size)
+    vol = pa.add_ambient_volume(pl, grid, model="path_traced", lights=[light], interactive=True,
+                                samples_per_pixel=8, interactive_samples=2)
+    r = vol.renderer
+    pl.show(auto_close=False)
+
+    def pt(seed, n=2):
+        return r.render(camera=CAMERA, window_size=size, model="path_traced", samples_per_pixel=n, seed=seed)
+
+    assert vol.result.metadata["spp"] == 2
+    assert np.array_equal(texture_image(vol.actor.GetTexture()), pt(0).to_uint8())
+    # a repeating timer on the interactor refines: each tick adds 2 samples with the next seed
+    pl.iren.interactor.InvokeEvent("TimerEvent")
+    assert vol.result.metadata["spp"] == 4
+    assert vol.refine() and vol.refine() and not vol.refine()  # 8 samples: done
+    mean = np.mean([pt(s).radiance for s in range(4)], axis=0)
+    # the volume alone (vol.result is it composited over the plotter's background, since 0.3.0)
+    np.testing.assert_allclose(vol.volume_result.radiance, mean, rtol=1e-5, atol=1e-6)
+    assert vol.volume_result.std_error.mean() < pt(0).std_error[np.isfinite(pt(0).std_error)].mean()
+    pl.camera.Azimuth(30.0)
+    pl.render()
+    assert vol.result.metadata["spp"] == 2  # a camera move starts over
+    vol.remove()
+    assert vol.observer is None
     pl.close()
