@@ -1,7 +1,8 @@
 """Scenes shared by test files in several folders: a cloud-like physical medium with two lights
-seen by one camera (the camera-pass models, the path tracer), and the scale-invariance scenes of
-tests/acceptance/test_extremes.py (also the diffusion model's light-inside case), and JSON scene
-files (the scene format, the CLI, the request's memory check)."""
+seen by one camera (the camera-pass models, the path tracer), the scale-invariance scenes of
+tests/acceptance/test_extremes.py (also the diffusion model's light-inside case), a box of constant
+scalars (emission–absorption, the request's checks), a lit homogeneous box (denoising), and JSON
+scene files (the scene format, the CLI, the request's memory check)."""
 
 import json
 
@@ -84,6 +85,24 @@ def scaled_scene(kind, s):
     # the default quality (light grid: docs/ambient_scattering.rst §3's factor from σt·h); g = 0.6 and 0.3 at
     # "balanced" table quality are slices shipped with the package (nothing to compute)
     return r, cam, g, {"quality": "balanced", "table_quality": "balanced", **options}
+
+
+
+def box_grid(dims=(20, 20, 20), spacing=0.1, origin=-0.95, value=1.0):
+    """A box of constant scalars ``value`` (array "d"): by default 20³ points filling [−0.95, 0.95]³."""
+    g = pv.ImageData(dimensions=dims, spacing=(spacing,) * 3, origin=(origin,) * 3)
+    g["d"] = np.full(g.n_points, value, np.float32)
+    return g
+
+
+def lit_box():
+    """A renderer of a 9³ homogeneous box on [−1, 1]³ (σt 1.5, albedo 0.8) lit by one point light:
+    the denoising tests' scene."""
+    g = pv.ImageData(dimensions=(9, 9, 9), spacing=(0.25,) * 3, origin=(-1, -1, -1))
+    g["sigma_t"] = np.full(g.n_points, 1.5, np.float32)
+    g["albedo"] = np.full((g.n_points, 3), 0.8, np.float32)
+    return pa.Renderer(g, transfer_function=pa.TransferFunction.physical(),
+                       lights=[pa.PointLight((0, -2, 1), intensity=4.0)])
 
 
 #: The camera of the scene-file tests, in the JSON form.

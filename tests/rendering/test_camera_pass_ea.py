@@ -6,11 +6,7 @@ import pyvista as pv
 import pv_ambient as pa
 from pv_ambient.inputs.camera import Camera
 
-
-def box_grid(dims=(20, 20, 20), spacing=0.1, origin=-0.95, value=1.0):
-    g = pv.ImageData(dimensions=dims, spacing=(spacing,) * 3, origin=(origin,) * 3)
-    g["d"] = np.full(g.n_points, value, np.float32)
-    return g
+from ..helpers import box_grid
 
 
 def exact_chords(cam, size, lo, hi):
@@ -110,13 +106,6 @@ def test_jitter_is_seeded_and_unbiased():
     assert abs(err.mean()) < 0.2 * np.abs(err).mean() + 1e-4
 
 
-@pytest.mark.parametrize("size", [(0, 10), (10, -1), (3.5, 4)])
-def test_bad_window_size(size):
-    g = box_grid(dims=(3, 3, 3))
-    with pytest.raises((ValueError, TypeError), match="window_size"):
-        pa.render(g, window_size=size)
-
-
 def test_nan_in_data_is_refused_by_default():
     g = box_grid(dims=(4, 4, 4))
     g["d"][3] = np.nan
@@ -125,23 +114,6 @@ def test_nan_in_data_is_refused_by_default():
     res = pa.render(g, window_size=(8, 8), nan_policy="vacuum",
                     transfer_function=pa.TransferFunction(density_scale=1.0, clim=(0, 1)))
     assert np.all(np.isfinite(res.radiance))
-
-
-def test_flat_grid_is_a_clear_error():
-    """A 2-D grid rendered nothing (only the background) until 0.3.0; now an error says why and what to do."""
-    g = pv.ImageData(dimensions=(5, 5, 1))
-    g["d"] = np.ones(25)
-    with pytest.raises(ValueError, match=r"the grid is 2-D \(dimensions \(5, 5, 1\): one point along z\), so the "
-                                         r"volume has no thickness.*dimensions \(5, 5, 2\) holding the layer twice"):
-        pa.render(g, window_size=(8, 8), transfer_function=pa.TransferFunction(density_scale=1.0))
-
-
-def test_unknown_model_and_option():
-    g = box_grid(dims=(3, 3, 3))
-    with pytest.raises(ValueError, match="model must be one of"):
-        pa.render(g, window_size=(4, 4), model="magic")
-    with pytest.raises(TypeError, match="unknown options"):
-        pa.render(g, window_size=(4, 4), stepp=0.1)
 
 
 def test_input_is_not_modified():
@@ -177,49 +149,3 @@ def test_ray_end_stops_rays_exactly():
     with pytest.raises(ValueError, match="ray_end must hold distances"):
         pa.render(g, transfer_function=tf, camera=cam, window_size=size, ray_end=-t_end)
 
-
-def test_tiled_driver_renders_each_pixel_of_its_rows_once(monkeypatch):
-    """Why: the CPU driver marches TILE² pixel tiles (cache locality), not rows; a band of rows whose
-    height and width are no multiple of the tile must still get every pixel, as one ray alone gives
-    it, and nothing outside the band, with one thread or two."""
-    import numba
-
-    from pv_ambient import backend as R
-    from pv_ambient._kernels import raycast
-
-    captured = {}
-    real = R.run_raycast
-
-    def capture(args, rad, alpha, **kw):
-        captured["args"] = args
-        return real(args, rad, alpha, **kw)
-
-    monkeypatch.setattr(R, "run_raycast", capture)
-    from pv_ambient import datasets
-
-    grid = datasets.cloud(n=16)
-    W, H = 2 * raycast.TILE + 5, 2 * raycast.TILE + 13
-    pa.render(grid, window_size=(W, H), camera=Camera((2, -3, 1), (0, 0, 0), (0, 0, 1), view_angle=35))
-    args = captured["args"]
-    r0, r1 = 3, H - 2
-    out = []
-    n0 = numba.get_num_threads()
-    for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
-        numba.set_num_threads(threads)
-        try:
-            rad = np.full((H, W, 3), np.nan, np.float32)
-            alpha = np.full((H, W), np.nan, np.float32)
-            raycast.raycast_image(*args, r0, r1, rad, alpha)
-        finally:
-            numba.set_num_threads(n0)
-        out.append((rad, alpha))
-    ref_rad = np.full_like(rad, np.nan)
-    ref_alpha = np.full_like(alpha, np.nan)
-    for j in range(r0, r1):
-        for i in range(W):
-            raycast.raycast_pixel(*args, j, i, ref_rad, ref_alpha)
-    for rad, alpha in out:  # every thread count: the same pixels, bit for bit
-        assert np.isnan(alpha[:r0]).all() and np.isnan(alpha[r1:]).all()
-        assert (alpha[r0:r1] > 0).mean() > 0.2  # the volume covers part of the band
-        np.testing.assert_array_equal(rad, ref_rad)
-        np.testing.assert_array_equal(alpha, ref_alpha)

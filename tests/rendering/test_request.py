@@ -2,14 +2,16 @@
 once, before any work — optional packages included — and decided in one place."""
 import numpy as np
 import pytest
+import pyvista as pv
 
 import pv_ambient as pa
 from pv_ambient import datasets
 from pv_ambient.rendering.presets import QUALITY_PRESETS, light_resolution_for
 from pv_ambient.rendering.request import resolve_radius
+from pv_ambient.stages.denoise import available
 from pv_ambient.stages.propagation import default_factor
 
-from ..helpers import scene_file
+from ..helpers import box_grid, lit_box, scene_file
 
 CAM = pa.Camera((0, -4, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
 
@@ -186,3 +188,31 @@ def test_compile_notice_is_one_line_once(monkeypatch, capsys):
     request.compile_notice("diffusion")
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("pv_ambient: compiling the rendering kernels")
+
+
+def test_flat_grid_is_a_clear_error():
+    """A 2-D grid rendered nothing (only the background) until 0.3.0; now an error says why and what to do."""
+    g = pv.ImageData(dimensions=(5, 5, 1))
+    g["d"] = np.ones(25)
+    with pytest.raises(ValueError, match=r"the grid is 2-D \(dimensions \(5, 5, 1\): one point along z\), so the "
+                                         r"volume has no thickness.*dimensions \(5, 5, 2\) holding the layer twice"):
+        pa.render(g, window_size=(8, 8), transfer_function=pa.TransferFunction(density_scale=1.0))
+
+
+def test_unknown_model_and_option():
+    g = box_grid(dims=(3, 3, 3))
+    with pytest.raises(ValueError, match="model must be one of"):
+        pa.render(g, window_size=(4, 4), model="magic")
+    with pytest.raises(TypeError, match="unknown options"):
+        pa.render(g, window_size=(4, 4), stepp=0.1)
+
+
+@pytest.mark.skipif(available(), reason="pyoidn is installed")
+def test_missing_pyoidn_names_the_extra():
+    with pytest.raises(ImportError, match=r"pv_ambient\[denoise\]"):
+        lit_box().render(camera=CAM, window_size=(8, 8), model="path_traced", samples_per_pixel=2, denoise=True)
+
+
+def test_denoise_flag_is_checked():
+    with pytest.raises(TypeError, match="denoise must be True or False"):
+        lit_box().render(camera=CAM, window_size=(8, 8), model="path_traced", samples_per_pixel=2, denoise="yes")

@@ -1,5 +1,7 @@
-"""Denoised path tracing (optional extra ``denoise``): a clear error without pyoidn; with it, the
-denoised image keeps the un-denoised standard error and says it was denoised."""
+"""Tests pv_ambient/stages/denoise.py (optional extra ``denoise``): the mean-preserving rescale, the
+denoiser's call and its albedo guide (the renderer's first-collision albedo), with pyoidn mocked;
+with pyoidn, a guided denoise that keeps the mean. The denoised ``path_traced`` model:
+tests/rendering/test_path_traced.py; ``denoise=True`` without pyoidn: tests/rendering/test_request.py."""
 
 import numpy as np
 import pytest
@@ -7,41 +9,12 @@ import pytest
 import pv_ambient as pa
 from pv_ambient.stages.denoise import available
 
+from ..helpers import lit_box
+
 pv = pytest.importorskip("pyvista")
 
 
-def scene():
-    g = pv.ImageData(dimensions=(9, 9, 9), spacing=(0.25,) * 3, origin=(-1, -1, -1))
-    g["sigma_t"] = np.full(g.n_points, 1.5, np.float32)
-    g["albedo"] = np.full((g.n_points, 3), 0.8, np.float32)
-    return pa.Renderer(g, transfer_function=pa.TransferFunction.physical(),
-                       lights=[pa.PointLight((0, -2, 1), intensity=4.0)])
-
-
 CAM = pa.Camera((0, -4, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
-
-
-@pytest.mark.skipif(available(), reason="pyoidn is installed")
-def test_missing_pyoidn_names_the_extra():
-    with pytest.raises(ImportError, match=r"pv_ambient\[denoise\]"):
-        scene().render(camera=CAM, window_size=(8, 8), model="path_traced", samples_per_pixel=2, denoise=True)
-
-
-def test_denoise_flag_is_checked():
-    with pytest.raises(TypeError, match="denoise must be True or False"):
-        scene().render(camera=CAM, window_size=(8, 8), model="path_traced", samples_per_pixel=2, denoise="yes")
-
-
-@pytest.mark.skipif(not available(), reason="needs the optional pyoidn")
-def test_denoised_result_keeps_standard_error():
-    r = scene()
-    raw = r.render(camera=CAM, window_size=(32, 32), model="path_traced", samples_per_pixel=4, seed=3)
-    den = r.render(camera=CAM, window_size=(32, 32), model="path_traced", samples_per_pixel=4, seed=3, denoise=True)
-    assert den.metadata["denoised"] and not raw.metadata["denoised"]
-    np.testing.assert_array_equal(den.std_error, raw.std_error)
-    assert np.all(np.isfinite(den.radiance)) and den.radiance.min() >= 0
-    # the denoiser removes pixel noise: neighbouring-pixel differences shrink
-    assert np.abs(np.diff(den.radiance, axis=1)).mean() < np.abs(np.diff(raw.radiance, axis=1)).mean()
 
 
 # --- mean preservation and the albedo guide (run without pyoidn: the denoiser is mocked) ---
@@ -121,7 +94,7 @@ def test_denoise_radiance_passes_a_clean_albedo_guide(fake_oidn):
 
 def test_albedo_guide_is_first_collision_albedo():
     # constant albedo a: ∫ T σt a dt = a (1 − T) = a · alpha of the emission–absorption render
-    r = scene()
+    r = lit_box()
     g = r.albedo_guide(CAM, (16, 12))
     ea = r.render(camera=CAM, window_size=(16, 12), step=r.default_step())
     assert g.shape == (12, 16, 3) and g.dtype == np.float32 and g.min() >= 0 and g.max() <= 1
@@ -146,10 +119,11 @@ def test_albedo_guide_of_a_colormap_tf_scales_its_colour():
 
 @pytest.mark.skipif(not available(), reason="needs the optional pyoidn")
 def test_oidn_with_albedo_guide_keeps_the_mean():
-    r = scene()
+    r = lit_box()
     raw = r.render(camera=CAM, window_size=(32, 32), model="path_traced", samples_per_pixel=4, seed=5)
     out = dn.denoise_radiance(raw.radiance, albedo=r.albedo_guide(CAM, (32, 32)))
     assert np.all(np.isfinite(out)) and out.min() >= 0
     np.testing.assert_allclose(out.astype(np.float64).sum(axis=(0, 1)),
                                raw.radiance.astype(np.float64).sum(axis=(0, 1)), rtol=1e-5)
     assert np.abs(np.diff(out, axis=1)).mean() < np.abs(np.diff(raw.radiance, axis=1)).mean()
+

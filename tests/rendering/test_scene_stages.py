@@ -1,0 +1,38 @@
+"""Tests pv_ambient/rendering/scene_stages.py: which stage runs when — a camera move computes nothing
+but the ray cast, a relight only the moved light's entries — and the renderers of other colours
+that share its σt-only entries."""
+from pv_ambient.inputs.camera import Camera
+from pv_ambient.inputs.lights import PointLight
+
+from ..helpers import LIGHTS, SIZE, physical_grid, render, renderer
+
+
+def test_camera_move_and_relight_reuse_caches():
+    r = renderer(physical_grid())
+    render(r, "ambient_scattering", propagation="tube")
+    keys = set(r.cache)
+    cam2 = Camera((1.0, -3.5, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
+    r.render(camera=cam2, window_size=SIZE, model="ambient_scattering", quality="preview", propagation="tube")
+    assert set(r.cache) == keys  # a camera move computes nothing but the ray cast
+    moved = PointLight((-0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
+    r.set_lights([moved, LIGHTS[1]])
+    render(r, "ambient_scattering", propagation="tube")
+    new = set(r.cache) - keys
+    # only the moved light's volumes are computed, and the entries of the new set of lights — the
+    # baked in-scattering (isotropic phase), the light volumes side by side — which replace the old set's
+    per_set = ("incident", "tau_stack", "front_stack")
+    assert new and all(moved in (k[1] if k[0] in per_set else k) for k in new)
+    for kind in per_set:
+        assert sum(k[0] == kind for k in new) == 1 and sum(k[0] == kind for k in r.cache) == 1
+
+
+def test_relight_resolves_only_the_moved_light():
+    r = renderer(physical_grid())
+    render(r, "diffusion")
+    keys = {k for k in r.cache if k[0] == "diffusion"}
+    assert len(keys) == 2  # one solve per light
+    moved = PointLight((-0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
+    r.set_lights([moved, LIGHTS[1]])
+    render(r, "diffusion")
+    new = {k for k in r.cache if k[0] == "diffusion"} - keys
+    assert len(new) == 1 and moved in next(iter(new))
