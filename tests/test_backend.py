@@ -77,3 +77,16 @@ def test_renders_run_blas_on_one_thread_and_restore_it(monkeypatch):
         after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
     assert seen and set(seen) == {1}  # one solve per light, each on one BLAS thread
     assert after == before and max(before) == 2  # (a BLAS that had 2 threads: the limit is visible)
+
+
+@pytest.mark.parametrize("bad", ["gpu", None, 1])
+def test_check_backend_is_the_one_check_and_names_the_argument(bad):
+    assert bk.BACKENDS == ("auto", "cpu", "cuda") and bk.check_backend("cuda") == "cuda"
+    with pytest.raises(ValueError, match=rf"^scene backend must be one of 'auto', 'cpu', 'cuda'; got {bad!r}$"):
+        bk.check_backend(bad, "scene backend")
+    assert bk.resolve_backend("cpu") == "cpu"  # never asks CUDA
+
+
+def test_tiles_cover_every_row_once():
+    assert [tuple(map(int, t)) for t in bk.tiles(10, 3)] == [(0, 3), (3, 6), (6, 10)]
+    assert [tuple(map(int, t)) for t in bk.tiles(2, 5)] == [(0, 1), (1, 2)]  # at most one tile per row

@@ -1,10 +1,13 @@
 """Tests pv_ambient/inputs/lights.py: point and directional lights, the default rig and its placement
 from the camera, pyvista.Light conversion, the JSON form and its errors."""
+import re
+
 import numpy as np
 import pytest
 
 import pv_ambient as pa
 from pv_ambient import datasets
+from pv_ambient.inputs.lights import DirectionalLight, PointLight, as_light, as_lights, pack_lights
 
 
 def test_lit_model_without_lights_argument_gets_the_default_rig():
@@ -60,3 +63,38 @@ def test_pyvista_lights_become_physical_lights():
     # the head light stays where the first render put it
     r.render(camera=pa.Camera((4.0, 0.0, 0.0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), model="single_scattering")
     assert r.lights[2] is h
+
+
+def test_lights_are_checked_and_normalised_and_their_json_form_round_trips():
+    sun = DirectionalLight((0, 0, -2), 0.5)
+    assert sun.direction == (0.0, 0.0, -1.0) and sun.irradiance == (0.5, 0.5, 0.5)
+    lamp = PointLight((1, 2, 3), 2.0)
+    assert as_light(lamp.to_dict()) == lamp and as_light(sun.to_dict()) == sun
+    with pytest.raises(ValueError, match=r"^light intensity components must be >= 0\.0, got -1$"):
+        PointLight((0, 0, 1), -1)
+    with pytest.raises(ValueError, match=r"^light direction must not be the zero vector, got \(0, 0, 0\)$"):
+        DirectionalLight((0, 0, 0))
+    assert as_lights(None) == ()  # not given, and no camera to place the default rig with
+    assert as_lights(lamp) == (lamp,)
+
+
+@pytest.mark.parametrize("spec, exc, message", [
+    ({"kind": "spot"}, ValueError, "lights[2]['kind'] must be 'point' or 'directional', got 'spot'"),
+    ({"kind": "point", "position": [0, 0, 1], "power": 2}, ValueError,
+     "lights[2] (point) has unknown keys ['power']; allowed: ['intensity', 'position']"),
+    (42, TypeError, "lights[2] must be a PointLight, DirectionalLight, pyvista.Light or dict, got int"),
+], ids=["kind", "unknown key", "not a light"])
+def test_a_bad_light_is_named_by_its_index(spec, exc, message):
+    with pytest.raises(exc, match=f"^{re.escape(message)}$"):
+        as_light(spec, 2)
+    with pytest.raises(TypeError, match=r"^lights must be a sequence of lights \(or one light\), got str$"):
+        as_lights("lamp")
+
+
+def test_pack_lights_gives_the_kernels_kinds_vectors_and_powers():
+    kind, vec, power = pack_lights([PointLight((1, 2, 3), (1.0, 0.5, 0.25)), DirectionalLight((0, 0, -2), 0.5)])
+    assert kind.dtype == np.int64 and kind.tolist() == [0, 1]  # POINT, DIRECTIONAL
+    np.testing.assert_array_equal(vec, [[1.0, 2.0, 3.0], [0.0, 0.0, -1.0]])
+    np.testing.assert_array_equal(power, [[1.0, 0.5, 0.25], [0.5, 0.5, 0.5]])
+    kind, vec, power = pack_lights([])
+    assert kind.shape == (0,) and vec.shape == (0, 3) and power.shape == (0, 3)

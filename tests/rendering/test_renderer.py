@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import pv_ambient as pa
+from pv_ambient import datasets
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
 
@@ -68,3 +69,37 @@ def test_auto_rules():
     assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is False
     assert res.metadata["sweep_orders"] == 0
     assert any(k[0] == "diffusion" and k[-1] is False for k in r.cache)
+
+
+def test_choose_model_decides_auto_and_leaves_other_models_alone():
+    """``Renderer.choose_model``, the one place ``auto`` is decided, asked directly with a request."""
+    from pv_ambient.rendering.renderer import ACCURATE_DIFFUSION, BUDGET_MAX_SPP
+
+    r = pa.Renderer(datasets.cloud(n=12), lights=[pa.PointLight((0, 0, 2), 3.0)])
+    cam = pa.Camera((0, -4, 0.5), (0, 0, 0), (0, 0, 1), view_angle=35)
+
+    def choose(**kw):
+        return r.choose_model(r.request(camera=cam, window_size=(8, 6), **kw))
+
+    assert choose(model="ambient_occlusion") == ("ambient_occlusion", {})
+    assert not r.cache.kinds()  # a model given by name asks for no stage
+    assert choose(model="auto", quality="preview") == ("ambient_scattering", {})
+    assert choose(model="auto", quality="accurate") == ("diffusion", ACCURATE_DIFFUSION)
+    assert ACCURATE_DIFFUSION == {"flux_limited": True, "sweep_orders": 8}
+    assert choose(model="auto", time_budget=0.5, denoise=False) == (
+        "path_traced", {"time_limit": 0.5, "denoise": False, "samples_per_pixel": BUDGET_MAX_SPP})
+    assert choose(model="auto", time_budget=0.5, denoise=False, samples_per_pixel=8) == (
+        "path_traced", {"time_limit": 0.5, "denoise": False})  # samples given: kept
+    dark = pa.Renderer(datasets.cloud(n=12), lights=())
+    assert dark.choose_model(dark.request(camera=cam, window_size=(8, 6), model="auto", time_budget=0.5)) == (
+        "single_scattering", {})
+
+
+def test_default_step_is_the_presets_fraction_of_the_finest_spacing():
+    r = pa.Renderer(datasets.cloud(n=12))  # spacing 2/11
+    h = float(np.min(r.geometry.spacing))
+    assert r.default_step("preview") == pytest.approx(h)
+    assert r.default_step() == pytest.approx(0.5 * h) and r.default_step("accurate") == pytest.approx(0.25 * h)
+    assert r.light_rig == "default" and r.lights == ()  # placed at the first lit render (tests/inputs/test_lights.py)
+    r.set_lights([pa.PointLight((0, 0, 2), 3.0)])
+    assert r.light_rig == "given" and r.place_lights(pa.Camera((0, -4, 0), (0, 0, 0), (0, 0, 1))) == r.lights

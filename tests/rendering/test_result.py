@@ -5,6 +5,8 @@ import pytest
 
 import pv_ambient as pa
 from pv_ambient import datasets
+from pv_ambient.rendering.presets import ALL_MODELS
+from pv_ambient.rendering.result import DISPLAY_KEYS, auto_exposure, is_lit_model, unknown_display_keys
 
 
 def test_auto_exposure_maps_the_99th_percentile_to_0_8_and_ea_keeps_vtk_convention():
@@ -34,3 +36,25 @@ def test_render_result_repr_is_one_short_line():
     text = repr(res)
     assert text.startswith("RenderResult(model='emission_absorption', window_size=(64, 48)")
     assert "\n" not in text and len(text) < 200 and "array" not in text
+
+
+def test_auto_exposure_reads_only_the_covered_pixels():
+    assert auto_exposure(np.full((4, 4, 3), 0.1)) == 3.0  # 0.1 · 2³ = 0.8
+    assert auto_exposure(np.zeros((4, 4, 3))) == 0.0  # black: nothing to expose
+    rad = np.full((10, 10, 3), 0.05)
+    rad[:5] = 10.0  # bright, but where the volume is absent (alpha 0)
+    alpha = np.zeros((10, 10))
+    alpha[5:] = 1.0
+    assert auto_exposure(rad, alpha) == 4.0  # 0.05 · 2⁴ = 0.8
+    assert auto_exposure(rad) < 0.0  # every pixel counts when none is covered
+
+
+def test_display_keys_and_which_models_are_lit():
+    assert DISPLAY_KEYS == ("exposure", "tonemap", "srgb")
+    assert unknown_display_keys({"exposure": 1, "gamma": 2.2, "srgb": True, "alpha": 1}) == ["alpha", "gamma"]
+    unlit = {"emission_absorption", "ambient_occlusion"}
+    assert {m for m in ALL_MODELS if not is_lit_model(m)} == unlit  # their display keeps VTK's exposure 0
+    assert not is_lit_model(None) and not is_lit_model("magic")
+    res = pa.RenderResult(np.zeros((2, 2, 3), np.float32), np.zeros((2, 2), np.float32), None)
+    with pytest.raises(ValueError, match=r"^tonemap must be one of 'clip', 'reinhard', 'aces'; got 'gamma'$"):
+        res.to_uint8(tonemap="gamma")

@@ -1,8 +1,11 @@
 """Tests pv_ambient/rendering/scene_stages.py: which stage runs when — a camera move computes nothing
 but the ray cast, a relight only the moved light's entries — and the renderers of other colours
 that share its σt-only entries."""
+import pickle
+
 from pv_ambient.inputs.camera import Camera
 from pv_ambient.inputs.lights import PointLight
+from pv_ambient.rendering.cache import SIGMA_ONLY
 
 from ..helpers import LIGHTS, SIZE, physical_grid, render, renderer
 
@@ -36,3 +39,27 @@ def test_relight_resolves_only_the_moved_light():
     render(r, "diffusion")
     new = {k for k in r.cache if k[0] == "diffusion"} - keys
     assert len(new) == 1 and moved in next(iter(new))
+
+
+def test_other_colours_of_the_same_sigma_reuse_its_light_volumes_and_share_the_device():
+    """``Renderer.with_optics`` (a TF of the same σt, other colours): the σt-only entries carried over
+    by reference — a render then computes no light volume again — and one GPU cache for both."""
+    r = renderer(physical_grid(n=9))
+    render(r, "single_scattering")
+    assert {"incident", "tau", "light_grid", "majorant"} <= r.cache.kinds()
+    other = r.with_optics(r.optics.albedo_as_colour())
+    assert other.cache.kinds() == r.cache.kinds() & SIGMA_ONLY == {"majorant", "light_grid", "sigma_l", "tau"}
+    taus = {k: r.cache[k] for k in r.cache.keys("tau")}
+    assert len(taus) == len(LIGHTS)
+    render(other, "single_scattering")
+    assert all(other.cache[k] is v for k, v in taus.items())  # reused, not recomputed
+    assert other.device_cache is r.device_cache
+    assert r.stages.device_for("cpu") is None and r.stages.device_for("cuda") is r.device_cache
+
+
+def test_stages_sent_to_another_process_leave_the_device_copies_behind():
+    r = renderer(physical_grid(n=9))
+    render(r, "single_scattering")
+    shipped = pickle.loads(pickle.dumps(r.stages))  # what a Dask worker receives
+    assert shipped.cache.kinds() == r.cache.kinds()
+    assert shipped.device_nbytes == 0 and shipped.device_cache is not r.device_cache
