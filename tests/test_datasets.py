@@ -1,4 +1,5 @@
-"""Synthetic datasets: deterministic, resolution independent, in range, wrapped as ImageData."""
+"""Tests pv_ambient/datasets.py, the synthetic datasets: deterministic, resolution independent, in
+range, wrapped as ImageData."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Error metrics of the trade study against values computed by hand."""
+"""Tests pv_ambient/metrics.py, the error metrics of the trade study, against values computed by hand."""
 
 import numpy as np
 import pytest

@@ -1,5 +1,5 @@
-"""Stability at the extremes (issue 4, item 4): every model on degenerate and extreme scenes, and
-scale invariance.
+"""Tests every render model end to end at the extremes (issue 4, item 4): degenerate and extreme scenes,
+and scale invariance.
 
 **The matrix** (``test_extreme_case``). Factors and levels:
 

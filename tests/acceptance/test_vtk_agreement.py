@@ -1,4 +1,5 @@
-"""Our emission–absorption image against VTK's own volume mappers (issue 2's acceptance).
+"""Tests whole renders against VTK: our emission–absorption image against VTK's own volume mappers
+(issue 2's acceptance).
 
 Same classification (our table given to VTK as node-per-entry transfer functions), linear
 interpolation, the same sample distance, the same camera: the uint8 images must agree to

@@ -1,6 +1,6 @@
-"""benchmarks/scenes.py, the registry of the benchmark scenes: every scene gives what the benchmarks
-need, and the three new out-of-sample scenes are what their descriptions say (light placement,
-optical thickness, albedo, phase). Geometry and optics only: nothing is rendered."""
+"""Tests benchmarks/scenes.py, the registry of the benchmark scenes: every scene gives what the
+benchmarks need, and the three new out-of-sample scenes are what their descriptions say (light
+placement, optical thickness, albedo, phase). Geometry and optics only: nothing is rendered."""
 import sys
 from pathlib import Path
 

@@ -5,7 +5,7 @@ defaults change).
 ``python tests/data/lit_baseline.py --save tests/data/lit_baseline_pre_0.3.0.npz`` was run at the commit
 issue 17's changes were merged onto (4b6a28e: pv_ambient 0.2.0 plus issue 16's speed work, whose baked
 in-scattering changes lit radiance by design; issue 17's branch had first been checked the same way
-against 65d2e28, the 0.2.0 release); ``tests/test_first_contact.py`` renders the same
+against 65d2e28, the 0.2.0 release); ``tests/acceptance/test_lit_baseline.py`` renders the same
 cases with the package under test and asserts every array is bit-identical to the saved one. Only
 public API is used (``Renderer``, ``render``, the JSON scene through the CLI), so the same cases run
 on both versions.

@@ -1,4 +1,5 @@
-"""Camera: our projection against VTK's own transform, and ray generation against projection."""
+"""Tests pv_ambient/inputs/camera.py: our projection against VTK's own transform, ray generation against
+projection, PyVista's default camera and camera strings, and the errors."""
 import numpy as np
 import pytest
 import pyvista as pv

@@ -1,4 +1,5 @@
-"""ImageData ↔ numpy: order, spacing, origin, direction, extent offset, cell data, bad input."""
+"""Tests pv_ambient/inputs/grid.py, the ImageData ↔ numpy converter: order, spacing, origin, direction,
+extent offset, cell data, bad input."""
 import numpy as np
 import pytest
 import pyvista as pv

@@ -1,4 +1,5 @@
-"""Phase functions: normalisation, moments, closed forms, χ² goodness of fit of the samplers.
+"""Tests pv_ambient/inputs/phase.py (and the scalars of _kernels/phase.py): normalisation, moments,
+closed forms, χ² goodness of fit of the samplers.
 
 The χ² test follows Mitsuba 3's ``chi2.py``: sampled directions are histogrammed on
 (φ, cos θ) cells in the frame of the incoming direction, expected counts come from the pdf

@@ -1,4 +1,5 @@
-"""Transfer functions: same classification as add_volume, opacity→σt, physical arrays, NaN policy."""
+"""Tests pv_ambient/inputs/transfer.py: same classification as add_volume, opacity→σt, physical arrays,
+NaN policy."""
 import numpy as np
 import pytest
 import pyvista as pv

@@ -1,5 +1,5 @@
-"""Equiangular distance sampling (pv_ambient._kernels.equiangular): the density integrates to one
-over its segment and equals an independent closed form, its samples follow it (χ² test), and it
+"""Tests pv_ambient/_kernels/equiangular.py, equiangular distance sampling: the density integrates to
+one over its segment and equals an independent closed form, its samples follow it (χ² test), and it
 stays finite where the ray passes through the light or the segment is short and far away."""
 
 import math

@@ -1,5 +1,6 @@
-"""Ambient occlusion and ambient scattering (docs/ambient_scattering.rst §4, §5): consistency with the models they
-reduce to, caching, the ``auto`` rules. Accuracy against the path-traced reference is measured by
+"""Tests pv_ambient/rendering/camera_pass.py, the ambient models: ambient occlusion and ambient
+scattering (docs/ambient_scattering.rst §4, §5), their consistency with the models they reduce to and
+the tube propagation's front. Accuracy against the path-traced reference is measured by
 ``benchmarks/trade.py`` (a benchmark, not a test)."""
 
 import numpy as np

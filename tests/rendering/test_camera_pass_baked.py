@@ -1,8 +1,9 @@
-"""Baked in-scattering (docs/models.rst, "Baked in-scattering"): for an isotropic phase function the
-light scattered toward the camera does not depend on the view, so the quality presets ``preview``
-and ``balanced`` bake it on the light grid once per light change. Checked here: the baked nodes
-against an independent NumPy evaluation, baked renders against the per-sample ones, relights, and
-when baking applies. Its error against the path-traced reference: ``benchmarks/baked.py``."""
+"""Tests pv_ambient/rendering/camera_pass.py's baked in-scattering (docs/models.rst, "Baked
+in-scattering"; the sums in pv_ambient/stages/bake.py): for an isotropic phase function the light
+scattered toward the camera does not depend on the view, so the quality presets ``preview`` and
+``balanced`` bake it on the light grid once per light change. Checked here: the baked nodes against an
+independent NumPy evaluation, baked renders against the per-sample ones, relights, and when baking
+applies. Its error against the path-traced reference: ``benchmarks/baked.py``."""
 
 import numpy as np
 import pytest

@@ -1,5 +1,6 @@
-"""The ``diffusion`` render model (docs/diffusion.rst): exact single scattering plus the multiply-scattered
-light of the diffusion solve; its limits and caching."""
+"""Tests pv_ambient/rendering/camera_pass.py, the ``diffusion`` model (docs/diffusion.rst): exact single
+scattering plus the multiply-scattered light of the diffusion solve; its limits, its vacuum floor and
+the fluence-only layout."""
 
 import math
 

@@ -1,4 +1,5 @@
-"""Emission–absorption renderer: analytic cases and behaviour at the edges of the input space."""
+"""Tests pv_ambient/rendering/camera_pass.py, the emission–absorption model: analytic cases and
+behaviour at the edges of the input space."""
 import numpy as np
 import pytest
 import pyvista as pv

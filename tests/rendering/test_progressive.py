@@ -1,5 +1,6 @@
-"""The ``progressive`` model (docs/progressive.rst): a noise-free model's picture plus residual path
-samples with that model's source at the first collision as a control variate."""
+"""Tests pv_ambient/rendering/progressive.py, the ``progressive`` model (docs/progressive.rst): a
+noise-free model's picture plus residual path samples with that model's source at the first collision as
+a control variate."""
 
 import numpy as np
 import pytest

@@ -1,5 +1,7 @@
-"""The checked request of one render (pv_ambient/rendering/request.py): every argument checked
-once, before any work — optional packages included — and decided in one place."""
+"""Tests pv_ambient/rendering/request.py, the checked request of one render: every argument checked
+once, before any work — optional packages included — and decided in one place; the warnings a request
+earns (unused lights and options, a black picture), the memory and thickness checks, the stage bars and
+the compile notice."""
 import numpy as np
 import pytest
 import pyvista as pv

@@ -1,6 +1,7 @@
-"""Diffusion solver (docs/diffusion.rst): analytic Green's function with second-order convergence, the
-Marshak slab's closed form, power balance, albedo scaling, vacuum, flux limiting against exact
-1D transport, the first-collision source and the direct irradiance's power."""
+"""Tests pv_ambient/stages/diffusion/ (solve, sources, system, multigrid), the diffusion solver
+(docs/diffusion.rst): analytic Green's function with second-order convergence, the Marshak slab's closed
+form, power balance, albedo scaling, vacuum, flux limiting against exact 1D transport, the
+first-collision source and the direct irradiance's power."""
 
 import math
 from types import SimpleNamespace

@@ -1,5 +1,6 @@
-"""The diffusion stage's transport sweep (docs/diffusion.rst §5): the once-scattered light by discrete
-ordinates, against closed forms, and its use by the diffusion model."""
+"""Tests pv_ambient/stages/diffusion/ordinates.py, the diffusion stage's transport sweep
+(docs/diffusion.rst §5): the once-scattered light by discrete ordinates, against closed forms, and its
+use by the diffusion model."""
 import math
 
 import numpy as np

@@ -1,5 +1,6 @@
-"""Preintegrated ball tables D and F (docs/ambient_scattering.rst §2): limits, energy conservation, agreement with an
-independent forward estimator, lookups, caching, the shipped default, argument errors.
+"""Tests pv_ambient/stages/preintegration/, the preintegrated ball tables D and F
+(docs/ambient_scattering.rst §2): limits, energy conservation, agreement with an independent forward
+estimator, lookups, caching, the shipped default, argument errors.
 
 Statistical tests and their false-alarm rates (for a correct implementation and an arbitrary seed;
 the seeds here are fixed, so each test is deterministic):

@@ -1,4 +1,5 @@
-"""Light volumes: optical depth by the upwind sweep against exact chords; vacuum and fall-off."""
+"""Tests pv_ambient/stages/propagation.py, the light volumes: optical depth by the upwind sweep against
+exact chords; vacuum and fall-off."""
 import numpy as np
 import pytest
 

@@ -1,5 +1,6 @@
-"""The ``path_traced`` reference: trackers, estimator and driver against analytic values,
-quadrature, a deliberately simple serial oracle, and the EA renderer.
+"""Tests pv_ambient/stages/reference.py, the ``path_traced`` reference (with its kernels): trackers,
+estimator and driver against analytic values, quadrature, a deliberately simple serial oracle, and the
+EA renderer.
 
 Every statistical check uses a fixed seed and states its false-alarm rate: the probability that
 a correct implementation fails it for a random seed (Gaussian approximation of the mean).

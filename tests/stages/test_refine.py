@@ -1,6 +1,6 @@
-"""The progressive model's thresholded correction (pv_ambient.stages.refine, docs/progressive.rst):
-exact corrections kept in full, unmeasured ones dropped, block means preserved, and a picture no
-worse than either the base or the unbiased estimate over a range of noise levels."""
+"""Tests pv_ambient/stages/refine.py, the progressive model's thresholded correction
+(docs/progressive.rst): exact corrections kept in full, unmeasured ones dropped, block means preserved,
+and a picture no worse than either the base or the unbiased estimate over a range of noise levels."""
 
 import numpy as np
 import pytest

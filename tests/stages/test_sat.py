@@ -1,4 +1,5 @@
-"""Summed-area table and mean extinction (docs/ambient_scattering.rst §1) against independent numpy computations.
+"""Tests pv_ambient/stages/sat.py (and _kernels/sat.py): summed-area table and mean extinction
+(docs/ambient_scattering.rst §1) against independent numpy computations.
 
 The brute-force references integrate the piecewise-constant field directly: sample ``i`` owns
 the cell ``[i−½, i+½]``, so a box's integral is ``Σ σ_ijk · ox_i · oy_j · oz_k`` with the
