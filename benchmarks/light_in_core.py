@@ -19,7 +19,7 @@ Printed, per estimator at ``--spp`` samples per pixel over ``--seeds`` seeds (ti
 
 The reference is the equiangular estimator at ``--ref-spp`` (≥ 16384; its estimator is checked
 against 1-D quadrature of the single-scattering integral with the light inside a homogeneous
-medium in tests/test_reference.py); its 4×4-block noise is printed and must stay well below the
+medium in tests/stages/test_reference.py); its 4×4-block noise is printed and must stay well below the
 errors measured. ``--ref-cache FILE`` keeps it between runs.
 
 Usage: ``python benchmarks/light_in_core.py [--n 64] [--size 96] [--spp 64] [--seeds 8] [--ref-spp 16384]``.

@@ -126,7 +126,7 @@ class GridGeometry:
                 self.box_lo.tobytes(), self.box_hi.tobytes())
 
 
-#: Supported grid spacings (world units). Rendering is scale invariant (tests/test_extremes.py),
+#: Supported grid spacings (world units). Rendering is scale invariant (tests/acceptance/test_extremes.py),
 #: but squared world lengths (I/d², the point-light clamp (step/4)², lights 1e6 box sizes away)
 #: must stay normal float64 numbers: spacings beyond this range underflow or overflow them.
 SPACING_RANGE = (1e-100, 1e100)

@@ -244,7 +244,7 @@ def hat_medium(optics, geometry):
     mean σt). Node samples of a classified field miss its integral where the transfer function
     is not linear in the data (sharp edges, windows); these means keep it to the quadrature
     (exactly for a physical medium, whose σt and albedo are trilinear; for binary data through
-    a convex transfer function +20 % where the node samples are +116 %, tests/test_diffusion_sweep.py)."""
+    a convex transfer function +20 % where the node samples are +116 %, tests/stages/test_diffusion_ordinates.py)."""
     from ..._kernels.medium import hat_medium as kernel
 
     shape = tuple(int(n) for n in geometry.shape)
