@@ -60,7 +60,8 @@ install-check:
 	$(PYTHON) -m venv $(INSTALL_CHECK)
 	$(INSTALL_CHECK)/bin/python -m pip install -q --upgrade pip
 	$(INSTALL_CHECK)/bin/python -m pip install -q .
-	cd $(INSTALL_CHECK) && NUMBA_CACHE_DIR=$(CURDIR)/$(INSTALL_CHECK)/numba_cache bin/python $(CURDIR)/tests/_install_smoke.py
+	cp tests/_install_smoke.py $(INSTALL_CHECK)/install_smoke.py  # run from outside tests/: its folders (tests/pyvista) would shadow packages
+	cd $(INSTALL_CHECK) && NUMBA_CACHE_DIR=$(CURDIR)/$(INSTALL_CHECK)/numba_cache bin/python install_smoke.py
 
 clean:
 	rm -rf $(VENV) .numba_cache demo_output build *.egg-info docs/auto_examples docs/sg_execution_times.rst
