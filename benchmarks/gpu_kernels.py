@@ -422,7 +422,9 @@ def toolchain():
         ptxas = shutil.which("ptxas")
         if ptxas:
             info["ptxas_warning"] = "ptxas found on PATH, not beside the NVVM: check that both are of one CUDA release"
-    if not ptxas:
+    if ptxas and not os.access(ptxas, os.X_OK):
+        missing.append(f"ptxas: {ptxas} is not an executable file")
+    elif not ptxas:
         missing.append("ptxas (the nvidia-cuda-nvcc-cu12 wheel's nvidia/cuda_nvcc/bin/ptxas, a CUDA "
                        "toolkit's bin/ptxas, or $PTXAS)")
     else:
