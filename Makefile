@@ -14,7 +14,7 @@ export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache/$(firstword $(shell cat pv_ambient/_kernels/*.py | cksum))
 export MPLBACKEND := Agg
 
-.PHONY: demo test install clean bench docs gallery install-check
+.PHONY: demo test install clean bench docs gallery install-check gpu-kernels
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -63,5 +63,20 @@ install-check:
 	cp tests/_install_smoke.py $(INSTALL_CHECK)/install_smoke.py  # run from outside tests/: its folders (tests/pyvista) would shadow packages
 	cd $(INSTALL_CHECK) && NUMBA_CACHE_DIR=$(CURDIR)/$(INSTALL_CHECK)/numba_cache bin/python install_smoke.py
 
+# The CUDA kernels' registers, spills and compile times, no GPU needed (benchmarks/gpu_kernels.py), in a venv
+# of its own (.venv-cuda: the cuda-dev extra's numba-cuda, NVVM and ptxas; .venv, the test suite's, stays
+# without them). Writes benchmarks/results/gpu_kernels.txt.
+CUDA_VENV := .venv-cuda
+CUDA_STAMP := $(CUDA_VENV)/.installed
+
+$(CUDA_STAMP): pyproject.toml
+	$(PYTHON) -m venv $(CUDA_VENV)
+	$(CUDA_VENV)/bin/python -m pip install -q --upgrade pip
+	$(CUDA_VENV)/bin/python -m pip install -e ".[cuda-dev]"
+	touch $(CUDA_STAMP)
+
+gpu-kernels: $(CUDA_STAMP)
+	$(CUDA_VENV)/bin/python benchmarks/gpu_kernels.py
+
 clean:
-	rm -rf $(VENV) .numba_cache demo_output build *.egg-info docs/auto_examples docs/sg_execution_times.rst
+	rm -rf $(VENV) $(CUDA_VENV) .numba_cache demo_output build *.egg-info docs/auto_examples docs/sg_execution_times.rst
