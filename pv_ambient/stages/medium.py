@@ -33,5 +33,7 @@ def scattering_nodes(optics, grid) -> np.ndarray:
 def stack_volumes(parts) -> np.ndarray:
     """One light-grid array per light, (m0, m1, m2) or (m0, m1, m2, c), side by side along a last
     axis as the kernels' records take them (the one array itself for a single light)."""
-    parts = [a if a.ndim == 4 else a[..., None] for a in parts]
+    # reshape, not a[..., None]: the new axis gets a real stride (a zero stride makes numba-cuda
+    # type the array as non-contiguous, and compile the ray cast once more for it)
+    parts = [a if a.ndim == 4 else a.reshape(a.shape + (1,)) for a in parts]
     return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
