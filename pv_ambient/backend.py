@@ -2,9 +2,12 @@
 compiled for an NVIDIA GPU by numba-cuda, docs/architecture.rst), chosen by ``backend="auto" | "cpu" | "cuda"``.
 
 ``auto`` takes CUDA when the ``numba-cuda`` package is installed (``pip install
-"pv_ambient[cuda]"``) and a GPU is visible, and the CPU otherwise; the render's metadata says
-which ran (``metadata["backend"]``). Asking for ``"cuda"`` when it cannot run raises an error
-that says what is missing: the package (and the extra that installs it) or a device.
+"pv_ambient[cuda]"``), can compile with this NumPy and a GPU is visible, and the CPU otherwise; the
+render's metadata says which ran (``metadata["backend"]``). When numba-cuda is installed but cannot
+run, ``auto`` says why in one RuntimeWarning per process; without numba-cuda it says nothing (the
+CPU is then the installed backend). Asking for ``"cuda"`` when it cannot run raises an error that
+says what is missing: the package (and the extra that installs it), a NumPy it can compile with,
+or a device.
 
 The CUDA side keeps a :class:`DeviceCache` per :class:`~pv_ambient.Renderer`: the volume, its
 lookup tables, majorant, ball (σ̄) grid, preintegrated table and light volumes are uploaded once
@@ -28,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import sys
 import warnings
 
 import numpy as np
@@ -77,15 +81,39 @@ def simulator() -> bool:
     return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"
 
 
+#: Per process: ``"problem"``, :func:`cuda_problem`'s answer once asked, and ``"warned"`` once ``auto``
+#: has said why it took the CPU.
+_CUDA_STATE = {}
+
+
 def cuda_problem():
-    """None when the CUDA backend can run here, else the exception that says why not."""
+    """None when the CUDA backend can run here, else the exception that says why not: a
+    ModuleNotFoundError when numba-cuda is not installed, an ImportError when it cannot compile with
+    this NumPy (:func:`numpy_clash`), a RuntimeError when no device is visible.
+
+    Every render asks it, and a frame's host work is kept to what the frame needs
+    (docs/performance.rst, "Installing the CUDA backend"): the answer is found once per process, the
+    driver asked for a device once, not per frame. The simulator, an environment variable, is read
+    each time.
+
+    .. versionchanged:: 0.4.0
+       Found once per process; a missing package is a ModuleNotFoundError.
+    """
     if simulator():
         return None
+    if "problem" not in _CUDA_STATE:
+        _CUDA_STATE["problem"] = _find_cuda_problem()
+    problem = _CUDA_STATE["problem"]
+    # a new exception each time: one raised again and again would keep every raise's frames
+    return None if problem is None else type(problem)(*problem.args)
+
+
+def _find_cuda_problem():
     try:
         import numba_cuda  # noqa: F401  (the numba-cuda package: the [cuda] extra)
     except ImportError:
-        return ImportError("backend='cuda' needs the numba-cuda package, which is not installed: "
-                           "pip install \"pv_ambient[cuda]\"")
+        return ModuleNotFoundError("backend='cuda' needs the numba-cuda package, which is not installed: "
+                                   "pip install \"pv_ambient[cuda]\"")
     version = getattr(numba_cuda, "__version__", None)
     if version is None and getattr(numba_cuda, "__file__", None):  # an installed package: its metadata
         try:
@@ -171,7 +199,13 @@ def check_backend(backend, name="backend") -> str:
 def resolve_backend(backend="auto") -> str:
     """``"cpu"`` or ``"cuda"``: the backend ``backend`` stands for on this machine.
 
-    Raises the :func:`cuda_problem` error for ``"cuda"`` when CUDA cannot run.
+    Raises the :func:`cuda_problem` error for ``"cuda"`` when CUDA cannot run. ``"auto"`` then takes
+    the CPU; when numba-cuda is installed (so the user meant to have the GPU) it says why in a
+    RuntimeWarning, once per process — not per frame — and without numba-cuda it stays silent, as on
+    any CPU-only install (docs/performance.rst, "Installing the CUDA backend").
+
+    .. versionchanged:: 0.4.0
+       ``"auto"`` warns once when numba-cuda is installed but cannot run.
     """
     if check_backend(backend) == "cpu":
         return "cpu"
@@ -180,7 +214,21 @@ def resolve_backend(backend="auto") -> str:
         return "cuda"
     if backend == "cuda":
         raise problem
+    if not isinstance(problem, ModuleNotFoundError) and not _CUDA_STATE.get("warned"):
+        _CUDA_STATE["warned"] = True
+        why = str(problem).removeprefix("backend='cuda': ")
+        warnings.warn(f"backend='auto' renders on the CPU: {why}", RuntimeWarning, stacklevel=_caller_stacklevel())
     return "cpu"
+
+
+def _caller_stacklevel() -> int:
+    """The ``warnings.warn`` stacklevel, for the function that calls this one, of the first frame
+    outside the package: the user's call, however deep in the package the warning is raised."""
+    package = os.path.dirname(os.path.abspath(__file__))
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package + os.sep):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def free_device_memory() -> float:
