@@ -8,7 +8,6 @@ dependencies); no pyvista, vtk or matplotlib — so a GPU node with only those c
     python benchmarks/gpu.py --backends cuda --cases 256:512 512:1024    # the GPU rows alone
     python benchmarks/gpu.py --fresh-process --backends cuda             # first frame in a fresh process
     python benchmarks/gpu.py --backends cpu --cases 32:64 --repeats 1 --out -   # no GPU needed
-    python benchmarks/gpu.py --compile-only    # no GPU needed: compile every kernel to PTX
     pv-ambient bench --backend cuda            # the same, from the CLI
 
 For each case (the ``supernova_table`` scene of benchmarks/scenes.py at n³: the supernova as the
@@ -40,10 +39,8 @@ context creation count, as they do for a user; the scene's construction (the ben
 synthetic volume) is printed but not counted, and ``process`` is the second process's whole wall
 time, interpreter start included.
 
-``--compile-only`` compiles the ray-cast, path-tracing and light-sweep kernels to PTX for a
-compute capability (default 9.0, H100) with numba-cuda's NVVM, without a driver or a GPU: it shows
-that the shared scalar functions type-check and compile for the CUDA target (the test suite checks
-them in Numba's simulator, which does not compile).
+Compiling every kernel without a GPU (registers, spills, compile time) is
+``benchmarks/gpu_kernels.py``'s job.
 
 The table goes to stdout and to ``benchmarks/results/gpu.txt`` (``--fresh-process``:
 ``gpu_first_frame.txt``; ``--out`` for another file, ``-`` for none), the command line, commit and
@@ -127,52 +124,6 @@ def measure(scene, size, model, backend, repeats, spp):
     if model == "path_traced":
         out["paths_per_s"] = size[0] * size[1] * spp / out["camera"]
     return out
-
-
-def compile_only(cc):
-    """Compile the three CUDA kernels to PTX for compute capability ``cc`` (no GPU needed): each
-    kernel's arguments are those its CPU driver got on a tiny scene, matched by name."""
-    import inspect
-    import types
-
-    import numba
-    from numba import cuda
-
-    import numba.cuda.dispatcher as disp
-
-    import pv_ambient as pa
-    import scenes
-
-    disp.get_current_device = lambda: types.SimpleNamespace(compute_capability=cc)  # no driver here
-    from pv_ambient._kernels import cuda as kc
-    from pv_ambient._kernels import lightvol, pathtrace, raycast
-
-    # kernel name → the CPU driver whose arguments it takes
-    drivers = {"raycast": (raycast, "raycast_image"), "pathtrace": (pathtrace, "pathtrace_image"),
-               "sweep_layer": (lightvol, "sweep_tau")}
-    captured = {}
-    for name, (mod, attr) in drivers.items():
-        def spy(*args, _name=name, _orig=getattr(mod, attr)):
-            captured.setdefault(_name, inspect.signature(_orig.py_func).bind(*args).arguments)
-            return _orig(*args)
-        setattr(mod, attr, spy)
-    vol, tf, _, _, cam = scenes.scene(SCENE, 12)
-    r = pa.Renderer(vol, transfer_function=tf, lights=[pa.PointLight((0, 0, 0.3), 3.0)], backend="cpu")
-    r.render(camera=cam, window_size=(8, 8), model="ambient_scattering", quality="preview", progress_bar=False)
-    r.render(camera=cam, window_size=(8, 8), model="path_traced", samples_per_pixel=1, progress_bar=False)
-    # a sweep kernel runs one layer k of axis a, reading the layer J back (prev) and writing cur
-    sweep = captured["sweep_layer"]
-    sweep.update(k=sweep["a"], J=sweep["a"], prev=sweep["hist"][0], cur=sweep["hist"][0])
-    print(f"compiling the CUDA kernels to PTX for compute capability {cc[0]}.{cc[1]} (no GPU used)")
-    for name in drivers:
-        scalar, x_name, y_name, _ = kc.KERNELS[name]
-        # kernel arguments: the scalar's without the thread indices, then row0, row1
-        params = [p for p in inspect.signature(scalar.py_func).parameters if p not in (x_name, y_name)]
-        sig = tuple(numba.typeof(v) for v in [captured[name][p] for p in params] + [0, 1])
-        t = time.perf_counter()
-        ptx, _ = cuda.compile_ptx(getattr(kc, f"{name}_kernel").py_func, sig, device=False, cc=cc)
-        print(f"  {name:12s} {len(ptx):8d} bytes of PTX in {time.perf_counter() - t:5.1f} s")
-    return 0
 
 
 def device_name():
@@ -374,8 +325,6 @@ def parser():
     p.add_argument("--timeout", type=float, default=1800, help="seconds per fresh process (--fresh-process)")
     p.add_argument("--out", help=f"where the table is written (default: {RESULTS['table'].relative_to(HERE.parent)}, "
                                  f"with --fresh-process {RESULTS['fresh'].relative_to(HERE.parent)}; '-' for none)")
-    p.add_argument("--compile-only", action="store_true")
-    p.add_argument("--cc", default="9.0", help="compute capability for --compile-only")
     p.add_argument("--stages", action="store_true", help="also print each warm-up frame's stage timings")
     p.add_argument("--_first-frame", nargs=4, metavar=("MODEL", "BACKEND", "N", "W"), help=argparse.SUPPRESS)
     return p
@@ -387,8 +336,6 @@ def main(argv=None):
         model, backend, n, w = args._first_frame
         print(json.dumps(first_frame(model, backend, int(n), int(w), args.spp)))
         return 0
-    if args.compile_only:
-        return compile_only(tuple(int(c) for c in args.cc.split(".")))
     args.backends = [b for b in BACKENDS if b in args.backends]  # each once, the GPU first
     from gpu_kernels import commit
 

@@ -68,6 +68,10 @@ CASES = (("emission_absorption", dict(model="emission_absorption")),
          ("ambient_scattering", dict(model="ambient_scattering")),
          ("ambient_scattering/tube", dict(model="ambient_scattering", propagation="tube")),
          ("diffusion", dict(model="diffusion")),
+         # a forward-scattering phase function: the lights are not baked (the unbaked specialisations)
+         ("single_scattering/g=0.5", dict(model="single_scattering", phase=0.5)),
+         ("ambient_scattering/g=0.5", dict(model="ambient_scattering", phase=0.5)),
+         ("diffusion/g=0.5", dict(model="diffusion", phase=0.5)),
          ("path_traced", dict(model="path_traced", samples_per_pixel=1, max_depth=3)),
          ("progressive", dict(model="progressive", samples_per_pixel=1, max_depth=3)))
 SCENE = "supernova_table"
@@ -463,8 +467,18 @@ def _child(args, env_extra=None, timeout=1800):
 
 
 def _short(locator):
-    """``raycast_kernel`` for ``pv_ambient._kernels.cuda:raycast_kernel``."""
-    return locator.split(":", 1)[-1]
+    """``pathtrace_kernel`` for ``pv_ambient._kernels.cuda:pathtrace_kernel``; a ray-cast
+    specialisation ``RAYCAST_KERNELS[(2, 1)]`` as ``raycast[single_scattering,baked]``."""
+    name = locator.split(":", 1)[-1]
+    m = re.fullmatch(r"RAYCAST_KERNELS\[\((\d+), (\d+)\)\]", name)
+    if m:
+        sys.path.insert(0, str(ROOT))
+        from pv_ambient._kernels import models
+
+        names = {v: k.lower() for k, v in vars(models).items() if k.isupper() and isinstance(v, int)}
+        model = names.get(int(m.group(1)), m.group(1))
+        return f"raycast[{model}{',baked' if int(m.group(2)) else ''}]"
+    return name
 
 
 def main(argv=None):
@@ -524,7 +538,7 @@ def main(argv=None):
 
     # the specialisations of a kernel together, kernels in the order of their first launch
     order = sorted(range(len(launches)), key=lambda i: (list(first).index(names[i].split("#")[0]), i))
-    head = (f"{'kernel':22s} {'arch':6s} {'regs':>5s} {'spill st':>9s} {'spill ld':>9s} {'stack':>6s} "
+    head = (f"{'kernel':36s} {'arch':6s} {'regs':>5s} {'spill st':>9s} {'spill ld':>9s} {'stack':>6s} "
             f"{'smem':>6s} {'thr/blk':>7s} {'py->ptx':>8s} {'ptxas':>7s} {'PTX kB':>7s}  launched by")
     rows = [head, "-" * len(head)]
     print(head, flush=True)
@@ -547,11 +561,11 @@ def main(argv=None):
                     st = ptxas_stats(tools["ptxas_path"], ptx_path, arch, comp["max_registers"])
                 except (RuntimeError, subprocess.TimeoutExpired) as exc:
                     failed = True
-                    row = f"{name:22s} {arch:6s} FAILED: {str(exc).splitlines()[0]}"
+                    row = f"{name:36s} {arch:6s} FAILED: {str(exc).splitlines()[0]}"
                     notes.append(f"# {name} {arch}: {exc}")
                 else:
                     kb = ptx_path.stat().st_size / 1024
-                    row = (f"{name:22s} {arch:6s} {st['registers']:5d} {st['spill_stores']:9d} "
+                    row = (f"{name:36s} {arch:6s} {st['registers']:5d} {st['spill_stores']:9d} "
                            f"{st['spill_loads']:9d} {st['stack']:6d} {st['smem']:6d} "
                            f"{max_threads_per_block(st['registers']):7d} {comp['seconds']:7.1f}s "
                            f"{st['ptxas_seconds']:6.1f}s {kb:7.0f}  {', '.join(item['cases'])}")

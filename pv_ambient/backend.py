@@ -175,8 +175,13 @@ def kernel_compiled(kind) -> bool:
     Numba keeps its cache elsewhere: say nothing rather than something wrong."""
     if kind == "path_trace":
         from ._kernels.pathtrace import pathtrace_image as fn
-    else:
-        from ._kernels.raycast import raycast_image as fn
+    else:  # the specialisations share one cache index
+        from ._kernels.raycast import RAYCAST_DRIVERS
+
+        fns = list(RAYCAST_DRIVERS.values())
+        if any(f.signatures for f in fns):
+            return True
+        fn = fns[0]
     try:
         return bool(fn.signatures) or os.path.exists(fn._cache._cache_file._index_path)
     except AttributeError:
@@ -323,13 +328,14 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     and outputs: the model id and the records."""
     from numba import cuda
 
-    from ._kernels.cuda import BLOCK, grid_for, raycast_kernel
+    from ._kernels.cuda import BLOCK, grid_for, raycast_kernel_for
 
     h, w = alpha.shape
+    kernel = raycast_kernel_for(args[0], args[5].baked)  # the model's own kernel (its id is compiled in)
     d_rad = cuda.device_array(rad.shape, rad.dtype)
     d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
     with _launch():
-        raycast_kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(args), d_rad, d_alpha, row0, row1)
+        kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(args[1:]), d_rad, d_alpha, row0, row1)
     rad[row0:row1] = d_rad.copy_to_host()[row0:row1]
     alpha[row0:row1] = d_alpha.copy_to_host()[row0:row1]
     cache.tick()

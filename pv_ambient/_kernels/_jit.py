@@ -18,7 +18,8 @@ device versions (recursively), so the physics exists once and only the drivers d
 
 Policy (one place, never copied): ``cache=True`` so compilation is paid once per machine,
 ``error_model="numpy"`` (no exception checks on division), and an explicit fastmath *set* that
-keeps ``nnan``/``ninf`` off — the trackers and the ray/box clipping rely on ``inf``.
+keeps ``nnan``/``ninf`` off — the trackers and the ray/box clipping rely on ``inf``. The CUDA
+kernels take the same set and the same disk cache (:func:`cuda_options`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ _COMMON = dict(cache=True, error_model="numpy", fastmath=set(FASTMATH), nogil=Tr
 
 
 _SCALARS = {}  # py_func -> CPU dispatcher of every scalar function
+_INLINE = set()  # py_funcs of the scalar functions inlined into their callers
 _CUDA = {}  # py_func -> CUDA device function (built on first use)
 
 
@@ -46,6 +48,8 @@ def scalar(fn=None, *, inline=False):
         opts = dict(_COMMON, inline="always") if inline else _COMMON
         disp = numba.njit(**opts)(f)
         _SCALARS[f] = disp
+        if inline:
+            _INLINE.add(f)
         return disp
 
     return wrap(fn) if fn is not None else wrap
@@ -54,6 +58,25 @@ def scalar(fn=None, *, inline=False):
 def is_scalar(obj) -> bool:
     """Whether ``obj`` is a dispatcher made by :func:`scalar`."""
     return getattr(obj, "py_func", None) in _SCALARS
+
+
+def _simulator() -> bool:
+    import os
+
+    return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"
+
+
+def cuda_options(device=False, inline=False) -> dict:
+    """``numba.cuda.jit``'s options for a kernel (``device=False``: Numba's disk cache on) or a device
+    function (``inline``: inlined by NVVM, ``forceinline``): the CPU's fastmath set, so the GPU
+    computes what the CPU computes (docs/architecture.rst, "CUDA kernels"). The simulator takes
+    neither ``forceinline`` nor a cache."""
+    opts = dict(fastmath=set(FASTMATH))
+    if _simulator():
+        return opts
+    if device:
+        return dict(opts, device=True, forceinline=bool(inline))
+    return dict(opts, cache=True)
 
 
 def _rebind(fn):
@@ -75,17 +98,21 @@ def cuda_device(disp):
     if dev is None:
         from numba import cuda
 
-        dev = cuda.jit(device=True)(_rebind(fn))
+        opts = cuda_options(device=True, inline=fn in _INLINE)
+        opts["device"] = True
+        dev = cuda.jit(**opts)(_rebind(fn))
         _CUDA[fn] = dev
     return dev
 
 
 def cuda_kernel(fn):
-    """Compile driver ``fn`` (plain Python using ``numba.cuda.grid``) as a CUDA kernel whose calls
-    of scalar functions go to their device versions."""
+    """Compile driver ``fn`` (plain Python using ``numba.cuda.grid``, defined in a module file) as a
+    CUDA kernel whose calls of scalar functions go to their device versions, cached on disk like
+    the CPU drivers (:func:`cuda_options`); a closure's constants (a ray-cast specialisation's
+    model) are part of the cache's key."""
     from numba import cuda
 
-    return cuda.jit(_rebind(fn))
+    return cuda.jit(**cuda_options())(_rebind(fn))
 
 
 def driver(fn=None, *, parallel=True):

@@ -1,11 +1,17 @@
 """CUDA drivers (docs/architecture.rst): one thread per pixel (or light-grid node), each running the same
 scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
 :func:`.pathtrace.pathtrace_pixel`, :func:`.residual.residual_pixel`, :func:`.lightvol.sweep_node`), compiled for the GPU by
-:func:`._jit.cuda_kernel`.
+:func:`._jit.cuda_kernel`. A kernel only finds its thread's pixel and calls that function: the
+physics exists once, in the scalar functions.
 
-The kernels are generated from the scalar functions' own signatures (:func:`grid_kernel`), so
-neither the maths nor the argument lists are written a second time: a kernel takes the scalar's
-arguments minus the two thread indices, then ``row0, row1`` (the rows it covers).
+The ray cast has one kernel per specialisation (:data:`.raycast.SPECIALISATIONS`: the model and
+whether the lights' in-scattering is baked, constants of the kernel), as the CPU has one driver per
+specialisation: no branch over models is left in a kernel's sample loop, and each keeps in
+registers only what its model reads. Every kernel is defined here, in a module file, so that
+Numba's disk cache keeps it: a new process compiles nothing (docs/performance.rst, "GPU").
+
+A kernel takes its scalar's arguments minus the two thread indices, then ``row0, row1`` (the rows
+it covers).
 
 Importing this module imports ``numba.cuda``: the backend layer (:mod:`pv_ambient.backend`) does
 so only when the CUDA backend is asked for. With ``NUMBA_ENABLE_CUDASIM=1`` (set before numba is
@@ -15,55 +21,70 @@ machine without a GPU.
 
 from __future__ import annotations
 
-import inspect
-
 from numba import cuda
 
 from ._jit import cuda_kernel
 from .lightvol import sweep_node
 from .pathtrace import pathtrace_pixel
-from .raycast import raycast_pixel
+from .raycast import SPECIALISATIONS, raycast_pixel, specialisation
 from .residual import residual_pixel
 
 #: Threads per block (x: the fast index, image columns; y: rows).
 BLOCK = (16, 8)
 
 
-def grid_source(scalar, x_name, y_name, shape_of):
-    """Python source of a kernel running ``scalar`` once per thread of a 2-D grid: thread x is
-    argument ``x_name``, ``row0`` + thread y is ``y_name``; threads outside ``shape_of``'s first
-    two dimensions (rows, columns) or past ``row1`` do nothing."""
-    params = list(inspect.signature(scalar.py_func).parameters)
-    args = [p for p in params if p not in (x_name, y_name)]
-    return (f"def kernel({', '.join(args)}, row0, row1):\n"
-            f"    {x_name}, _ty = cuda.grid(2)\n"
-            f"    {y_name} = row0 + _ty\n"
-            f"    if {x_name} < {shape_of}.shape[1] and {y_name} < row1:\n"
-            f"        scalar({', '.join(params)})\n")
+def raycast_kernel(model, baked):
+    """The ray-cast kernel of specialisation ``(model, baked)`` (:data:`RAYCAST_KERNELS` holds them:
+    use that, each is compiled once): one thread per pixel of rows [row0, row1)."""
+
+    def raycast(view, march, medium, lights, grid, ambient, diffusion, out_rad, out_alpha, row0, row1):
+        i, ty = cuda.grid(2)
+        j = row0 + ty
+        if i < out_alpha.shape[1] and j < row1:
+            raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
+                          out_alpha)
+
+    return cuda_kernel(raycast)
 
 
-def grid_function(scalar, x_name, y_name, shape_of):
-    """The plain Python function of :func:`grid_source` (``scalar`` still the CPU dispatcher)."""
-    ns = {"cuda": cuda, "scalar": scalar}
-    exec(grid_source(scalar, x_name, y_name, shape_of), ns)  # noqa: S102 - source built above
-    return ns["kernel"]
+#: The ray-cast kernel of every specialisation (compiled at its first launch, or read from the cache).
+RAYCAST_KERNELS = {spec: raycast_kernel(*spec) for spec in SPECIALISATIONS}
 
 
-def grid_kernel(scalar, x_name, y_name, shape_of):
-    """:func:`grid_function` compiled as a CUDA kernel (its call of ``scalar`` goes to the device
-    version)."""
-    return cuda_kernel(grid_function(scalar, x_name, y_name, shape_of))
+def raycast_kernel_for(model, baked):
+    """The kernel that renders ray-cast ``model`` (an id of :mod:`.models`) with the light grid's
+    ``baked`` field."""
+    return RAYCAST_KERNELS[specialisation(model, baked)]
 
 
-KERNELS = {"raycast": (raycast_pixel, "i", "j", "out_alpha"),
-           "pathtrace": (pathtrace_pixel, "i", "j", "sum_hit"),
-           "residual": (residual_pixel, "i", "j", "sum_hit"),
-           "sweep_layer": (sweep_node, "ic", "ib", "cur")}  # ic: contiguous in memory, fastest in a warp
+@cuda_kernel
+def pathtrace_kernel(view, medium, lights, paths, s0, s1, sum_rad, sum_sq, sum_hit, row0, row1):
+    """Samples [s0, s1) of every pixel of rows [row0, row1) added to the sums, one thread per pixel."""
+    i, ty = cuda.grid(2)
+    j = row0 + ty
+    if i < sum_hit.shape[1] and j < row1:
+        pathtrace_pixel(view, medium, lights, paths, s0, s1, j, i, sum_rad, sum_sq, sum_hit)
 
-raycast_kernel = grid_kernel(*KERNELS["raycast"])
-pathtrace_kernel = grid_kernel(*KERNELS["pathtrace"])
-residual_kernel = grid_kernel(*KERNELS["residual"])
-sweep_layer_kernel = grid_kernel(*KERNELS["sweep_layer"])
+
+@cuda_kernel
+def residual_kernel(view, medium, lights, paths, cmodel, clights, cgrid, cambient, cdiffusion, s0, s1, sum_rad, sum_sq,
+                    sum_hit, row0, row1):
+    """Residual samples [s0, s1) of every pixel of rows [row0, row1), one thread per pixel."""
+    i, ty = cuda.grid(2)
+    j = row0 + ty
+    if i < sum_hit.shape[1] and j < row1:
+        residual_pixel(view, medium, lights, paths, cmodel, clights, cgrid, cambient, cdiffusion, s0, s1, j, i,
+                       sum_rad, sum_sq, sum_hit)
+
+
+@cuda_kernel
+def sweep_layer_kernel(sig, B, is_point, lx, ly, lz, a, k, J, prev, out, cur, row0, row1):
+    """Layer ``k`` of a sweep along axis ``a``, one thread per node (``ic``, contiguous in memory,
+    the fastest index of a warp)."""
+    ic, ty = cuda.grid(2)
+    ib = row0 + ty
+    if ic < cur.shape[1] and ib < row1:
+        sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur)
 
 
 def grid_for(width, height, block=BLOCK):

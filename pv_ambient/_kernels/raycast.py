@@ -26,7 +26,7 @@ from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .medium import MODE_GRID, lut_coords, lut_value
-from .models import AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION
+from .models import AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
 from .phase import phase_eval
 from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
@@ -364,17 +364,17 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
 
 
 @scalar(inline=True)
-def lit_source(model, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, diffusion):
+def lit_source(model, baked, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, diffusion):
     """The in-scattered light per unit albedo (rgb) of lit ray-cast ``model`` at index-space point
-    (x, y, z) = world point w, seen along d: the baked or per-light direct light, plus ambient
-    scattering's ball term or diffusion's multiply-scattered light (module docstring). The march's
-    source there is ``a·this + (1 − a)·Le``; :mod:`.residual` evaluates the same function at a path's
-    first collision."""
-    if grid.baked:  # isotropic phase: the lights' in-scattering, baked
+    (x, y, z) = world point w, seen along d: the baked (``baked`` true: ``grid.inc`` holds it) or
+    per-light direct light, plus ambient scattering's ball term or diffusion's multiply-scattered
+    light (module docstring). The march's source there is ``a·this + (1 − a)·Le``; :mod:`.residual`
+    evaluates the same function at a path's first collision."""
+    if baked:  # isotropic phase: the lights' in-scattering, baked
         lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
     else:
         lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
-    if model == AMBIENT_SCATTERING and not grid.baked:
+    if model == AMBIENT_SCATTERING and not baked:
         bs, b1, b2, b3 = trilinear4(ambient.ball, x, y, z)
         mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient,
                                    ambient.radius * bs, b1, b2, b3)
@@ -390,11 +390,15 @@ def lit_source(model, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambien
 
 
 @scalar
-def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
+def march_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
     """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
-    docstring) and the ray's remaining transmittance; the ray stops at world distance ``t_end``
-    (opaque geometry; ``inf`` for none). The background is not added. The scene comes in the
-    records of :mod:`.records`."""
+    docstring; ``baked``: whether the lights' in-scattering is read from ``grid.inc``) and the ray's
+    remaining transmittance; the ray stops at world distance ``t_end`` (opaque geometry; ``inf`` for
+    none). The background is not added. The scene comes in the records of :mod:`.records`.
+
+    Each specialisation's driver (:data:`SPECIALISATIONS`) passes ``model`` and ``baked`` as constants:
+    Numba compiles this function once per pair (literal argument types) and drops every other
+    model's branch from the sample loop."""
     cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
     step, jitter, seed, ert = march.step, march.jitter, march.seed, march.ert
     maj, block = medium.maj, medium.block
@@ -444,7 +448,7 @@ def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i,
                         sg = cg + ag * occ
                         sb = cb + ab * occ
                     else:
-                        lr, lg, lb = lit_source(model, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, dx, dy, dz,
+                        lr, lg, lb = lit_source(model, baked, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, dx, dy, dz,
                                                 w2i, lights, grid, ambient, diffusion)
                         sr = ar * lr + (1.0 - ar) * er
                         sg = ag * lg + (1.0 - ag) * eg
@@ -463,14 +467,15 @@ def march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i,
 
 
 @scalar
-def raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha):
+def raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha):
     """Render pixel (i, j) into ``out_rad``/``out_alpha`` (the work of one thread of either
-    driver); ``march.t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
+    driver: :func:`raycast_driver`'s loop, :func:`pv_ambient._kernels.cuda.raycast_kernel`'s
+    thread); ``march.t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
     H, W = out_alpha.shape
     t_end, bg = march.t_end, march.bg
     per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
     te = t_end[j, i] if per_pixel else t_end[0, 0]
-    r, gg, b, T = march_pixel(model, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, te)
+    r, gg, b, T = march_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, te)
     out_rad[j, i, 0] = r + T * bg[0]
     out_rad[j, i, 1] = gg + T * bg[1]
     out_rad[j, i, 2] = b + T * bg[2]
@@ -499,23 +504,62 @@ def row_stride(n):
 TILE = 16
 
 
-@driver
+#: The ray cast's specialisations, ``(model id, baked)``: each compiles to a driver (and a CUDA kernel,
+#: :mod:`.cuda`) of its own, the model and whether the lights' in-scattering is baked fixed when it is
+#: compiled — no branch over models is left in the sample loop, and a kernel keeps in registers only
+#: what its model reads (docs/architecture.rst, "One kernel per model"). Ambient scattering with baked
+#: lights marches as baked single scattering (its ball term is in the bake).
+SPECIALISATIONS = ((EMISSION_ABSORPTION, 0), (AMBIENT_OCCLUSION, 0), (SINGLE_SCATTERING, 0), (SINGLE_SCATTERING, 1),
+                   (AMBIENT_SCATTERING, 0), (DIFFUSION, 0), (DIFFUSION, 1))
+
+
+def specialisation(model, baked):
+    """The :data:`SPECIALISATIONS` entry that renders ray-cast ``model`` with ``baked`` (the light
+    grid's ``baked`` field: non-zero when the lights' in-scattering is baked).
+
+    >>> specialisation(AMBIENT_SCATTERING, 3), specialisation(EMISSION_ABSORPTION, 1)
+    ((2, 1), (0, 0))
+    """
+    baked = int(bool(baked) and model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION))
+    if baked and model == AMBIENT_SCATTERING:
+        model = SINGLE_SCATTERING
+    return model, baked
+
+
+def raycast_driver(model, baked):
+    """The CPU driver of specialisation ``(model, baked)``: rows [row0, row1) of the image, one
+    :func:`raycast_pixel` per pixel, the scene in the records of :mod:`.records`. The pixels are
+    visited in :data:`TILE`² tiles (cache locality), the tiles in a golden-ratio stride order
+    (:func:`row_stride`): ``prange`` hands each thread one contiguous run of iterations, which would
+    otherwise be one band of the image (all of the volume, or none of it).
+
+    ``model`` and ``baked`` are the closure's constants: Numba compiles (and caches on disk, keyed by
+    them) one driver per specialisation."""
+
+    def raycast_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
+        W = out_alpha.shape[1]
+        n_rows = (row1 - row0 + TILE - 1) // TILE
+        n_cols = (W + TILE - 1) // TILE
+        n = n_rows * n_cols
+        stride = row_stride(n)
+        for q in prange(n):
+            t = (q * stride) % n
+            a = t // n_cols
+            b = t - a * n_cols
+            for j in range(row0 + a * TILE, min(row0 + (a + 1) * TILE, row1)):
+                for i in range(b * TILE, min((b + 1) * TILE, W)):
+                    raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
+                                  out_alpha)
+
+    return driver(raycast_rows)
+
+
+#: :func:`raycast_driver` of every specialisation (compiled on first use).
+RAYCAST_DRIVERS = {spec: raycast_driver(*spec) for spec in SPECIALISATIONS}
+
+
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
-    """CPU driver: rows [row0, row1) of the image, one :func:`raycast_pixel` per pixel; the scene
-    in the records of :mod:`.records`. The pixels are visited in :data:`TILE`² tiles (cache
-    locality), the tiles in a golden-ratio stride order (:func:`row_stride`): ``prange`` hands
-    each thread one contiguous run of iterations, which would otherwise be one band of the image
-    (all of the volume, or none of it)."""
-    W = out_alpha.shape[1]
-    n_rows = (row1 - row0 + TILE - 1) // TILE
-    n_cols = (W + TILE - 1) // TILE
-    n = n_rows * n_cols
-    stride = row_stride(n)
-    for q in prange(n):
-        t = (q * stride) % n
-        a = t // n_cols
-        b = t - a * n_cols
-        for j in range(row0 + a * TILE, min(row0 + (a + 1) * TILE, row1)):
-            for i in range(b * TILE, min((b + 1) * TILE, W)):
-                raycast_pixel(model, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
-                              out_alpha)
+    """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: the driver of its
+    specialisation (:func:`specialisation`), the scene in the records of :mod:`.records`."""
+    RAYCAST_DRIVERS[specialisation(model, grid.baked)](view, march, medium, lights, grid, ambient, diffusion, row0,
+                                                        row1, out_rad, out_alpha)

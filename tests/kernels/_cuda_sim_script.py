@@ -25,13 +25,32 @@ cpu = pa.Renderer(grid, transfer_function=tf, lights=lights, backend="cpu")
 gpu = pa.Renderer(grid, transfer_function=tf, lights=lights, backend="cuda")
 CASES = [("emission_absorption", {}), ("ambient_occlusion", {}), ("single_scattering", {"phase": 0.5}),
          ("ambient_scattering", {}), ("ambient_scattering", {"propagation": "tube"}),
-         ("diffusion", {"flux_limited": True}), ("path_traced", {"samples_per_pixel": 2, "max_depth": 4}),
+         ("diffusion", {"flux_limited": True}), ("ambient_scattering", {"phase": 0.5}), ("diffusion", {"phase": 0.5}), ("path_traced", {"samples_per_pixel": 2, "max_depth": 4}),
          ("progressive", {"samples_per_pixel": 2, "max_depth": 4}),
          ("single_scattering", {"jitter": True, "seed": 7})]
+from numba.cuda.simulator.kernel import FakeCUDAKernel  # noqa: E402
+
+from pv_ambient._kernels import cuda as kc  # noqa: E402
+
+out["raycast_kernels"] = sorted(kc.RAYCAST_KERNELS)
+spec_of = {id(k): list(spec) for spec, k in kc.RAYCAST_KERNELS.items()}
+_launches = []
+_call = FakeCUDAKernel.__call__
+
+
+def _recording_call(self, *args):
+    if id(self) in spec_of:
+        _launches.append(spec_of[id(self)])
+    return _call(self, *args)
+
+
+FakeCUDAKernel.__call__ = _recording_call
+out["launched"] = {}
 for model, opts in CASES:
     for c, cam in enumerate(cams[:2] if model == "ambient_scattering" and not opts else cams[:1]):
         kw = dict(window_size=(12, 10), model=model, quality="preview", camera=cam, **opts)
         a = cpu.render(**kw)
+        _launches.clear()
         b = gpu.render(**kw)
         scale = max(float(np.abs(a.radiance).max()), 1e-30)
         name = f"{model}{'/' + ','.join(f'{k}={v}' for k, v in opts.items()) if opts else ''}/cam{c}"
@@ -39,6 +58,7 @@ for model, opts in CASES:
                      "alpha": float(np.abs(a.alpha - b.alpha).max()), "backend": b.metadata["backend"],
                      "cpu_backend": a.metadata["backend"], "mean": float(a.radiance.mean()),
                      "device_memory": int(b.metadata.get("device_memory", 0))}
+        out["launched"][name] = sorted({tuple(x) for x in _launches})
 # device-resident: a camera move uploads no new volume (the same device arrays are reused)
 cache = gpu.device_cache
 before = {k: id(d) for k, (h, d, t) in cache._items.items() if h.nbytes > 4096}

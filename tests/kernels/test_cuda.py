@@ -31,7 +31,7 @@ def sim(tmp_path_factory):
 
 MODELS = ["emission_absorption/cam0", "ambient_occlusion/cam0", "single_scattering/phase=0.5/cam0",
           "ambient_scattering/cam0", "ambient_scattering/cam1", "ambient_scattering/propagation=tube/cam0",
-          "diffusion/flux_limited=True/cam0", "path_traced/samples_per_pixel=2,max_depth=4/cam0",
+          "diffusion/flux_limited=True/cam0", "ambient_scattering/phase=0.5/cam0", "diffusion/phase=0.5/cam0", "path_traced/samples_per_pixel=2,max_depth=4/cam0",
           "progressive/samples_per_pixel=2,max_depth=4/cam0",
           "single_scattering/jitter=True,seed=7/cam0"]
 
@@ -70,29 +70,52 @@ def test_cli_scene_backend(sim):
 
 
 def test_physics_exists_once():
-    """Every CUDA driver body only indexes threads and calls the CPU driver's per-pixel scalar."""
+    """Every CUDA kernel body only finds its thread's pixel and calls the CPU driver's per-pixel
+    scalar: the physics exists once. The kernels are written in the module file (no generated
+    source: Numba's disk cache keeps them), and the ray cast has one kernel per specialisation, as
+    the CPU has one driver per specialisation."""
+    import ast
     import inspect
 
     src = (Path(pa.__file__).parent / "_kernels" / "cuda.py").read_text()
-    from pv_ambient._kernels import lightvol, pathtrace, raycast
+    assert "exec(" not in src and "math." not in src and "exp(" not in src
+    kernels = {n.name: n for n in ast.walk(ast.parse(src)) if isinstance(n, ast.FunctionDef)
+               and any(isinstance(c, ast.Attribute) and c.attr == "grid" for c in ast.walk(n))
+               and not any(isinstance(c, ast.FunctionDef) for c in ast.walk(n) if c is not n)}
+    scalars = {"raycast": "raycast_pixel", "pathtrace_kernel": "pathtrace_pixel", "residual_kernel": "residual_pixel",
+               "sweep_layer_kernel": "sweep_node"}
+    assert set(kernels) == set(scalars)
+    for name, node in kernels.items():
+        called = [c.func.id if isinstance(c.func, ast.Name) else c.func.attr for c in ast.walk(node)
+                  if isinstance(c, ast.Call)]
+        assert sorted(called) == sorted(["grid", scalars[name]]), (name, called)
+        # no arithmetic but the thread's row offset
+        assert sum(isinstance(b, ast.BinOp) for b in ast.walk(node)) == 1, name
 
-    # the kernels are generated from the scalars' signatures: the source holds no call with arguments
-    for scalar in ("raycast_pixel", "pathtrace_pixel", "sweep_node"):
-        assert f"{scalar}(" not in src, scalar
-    from pv_ambient._kernels.cuda import grid_source
+    from pv_ambient._kernels import lightvol, pathtrace, raycast, residual
 
-    gen = grid_source(raycast.raycast_pixel, "i", "j", "out_alpha")
-    assert gen.count("scalar(") == 1 and "exp" not in gen and ", j, i," in gen
-
-    assert "raycast_pixel(" in inspect.getsource(raycast.raycast_image.py_func)
+    assert "raycast_pixel(" in inspect.getsource(raycast.raycast_driver)
     assert "pathtrace_pixel(" in inspect.getsource(pathtrace.pathtrace_image.py_func)
     assert "sweep_node(" in inspect.getsource(lightvol.sweep_tau.py_func)
-    assert "math." not in src and "exp(" not in src  # no arithmetic of the physics in the drivers
-    # the scene travels in the records of _kernels/records.py, not in ~40 positional arguments
-    from pv_ambient._kernels import residual
-
-    assert "residual_pixel(" not in src
     assert "residual_pixel(" in inspect.getsource(residual.residual_image.py_func)
+    # the scene travels in the records of _kernels/records.py, not in ~40 positional arguments
     for fn in (raycast.raycast_pixel, pathtrace.pathtrace_pixel):
-        assert len(inspect.signature(fn.py_func).parameters) <= 12, fn
+        assert len(inspect.signature(fn.py_func).parameters) <= 13, fn
 
+
+def test_one_kernel_per_specialisation(sim):
+    """The CUDA side compiles one ray-cast kernel per specialisation of the CPU's, and each model's
+    render launched its own."""
+    from pv_ambient._kernels import raycast
+
+    out, _ = sim
+    assert [tuple(k) for k in out["raycast_kernels"]] == sorted(raycast.SPECIALISATIONS)
+    assert sorted(raycast.RAYCAST_DRIVERS) == sorted(raycast.SPECIALISATIONS)
+    launched = out["launched"]
+    assert launched["emission_absorption/cam0"] == [[0, 0]]
+    assert launched["ambient_occlusion/cam0"] == [[1, 0]]
+    assert launched["single_scattering/phase=0.5/cam0"] == [[2, 0]]  # anisotropic: not baked
+    assert launched["ambient_scattering/cam0"] == [[2, 1]]  # isotropic: baked, marched as baked SS
+    assert launched["diffusion/flux_limited=True/cam0"] in ([[4, 1]], [[2, 1]])
+    assert launched["ambient_scattering/phase=0.5/cam0"] == [[3, 0]]
+    assert launched["diffusion/phase=0.5/cam0"] == [[4, 0]]
