@@ -72,11 +72,13 @@ def cuda_options(device=False, inline=False) -> dict:
     computes what the CPU computes (docs/architecture.rst, "CUDA kernels"). The simulator takes
     neither ``forceinline`` nor a cache."""
     opts = dict(fastmath=set(FASTMATH))
-    if _simulator():
-        return opts
     if device:
-        return dict(opts, device=True, forceinline=bool(inline))
-    return dict(opts, cache=True)
+        opts["device"] = True
+        if not _simulator():
+            opts["forceinline"] = bool(inline)
+    elif not _simulator():
+        opts["cache"] = True
+    return opts
 
 
 def _rebind(fn):
@@ -98,9 +100,7 @@ def cuda_device(disp):
     if dev is None:
         from numba import cuda
 
-        opts = cuda_options(device=True, inline=fn in _INLINE)
-        opts["device"] = True
-        dev = cuda.jit(**opts)(_rebind(fn))
+        dev = cuda.jit(**cuda_options(device=True, inline=fn in _INLINE))(_rebind(fn))
         _CUDA[fn] = dev
     return dev
 
