@@ -72,6 +72,15 @@ CASES = (("emission_absorption", dict(model="emission_absorption")),
          ("single_scattering/g=0.5", dict(model="single_scattering", phase=0.5)),
          ("ambient_scattering/g=0.5", dict(model="ambient_scattering", phase=0.5)),
          ("diffusion/g=0.5", dict(model="diffusion", phase=0.5)),
+         # a physical transfer function (per-voxel σt, albedo, emission: the medium's GRID mode)
+         *((f"{label}/physical", dict(opts, physical=True)) for label, opts in (
+             ("emission_absorption", dict(model="emission_absorption")),
+             ("ambient_occlusion", dict(model="ambient_occlusion")),
+             ("single_scattering", dict(model="single_scattering")),
+             ("diffusion", dict(model="diffusion")),
+             ("single_scattering/g=0.5", dict(model="single_scattering", phase=0.5)),
+             ("ambient_scattering/g=0.5", dict(model="ambient_scattering", phase=0.5)),
+             ("diffusion/g=0.5", dict(model="diffusion", phase=0.5)))),
          ("path_traced", dict(model="path_traced", samples_per_pixel=1, max_depth=3)),
          ("progressive", dict(model="progressive", samples_per_pixel=1, max_depth=3)))
 SCENE = "supernova_table"
@@ -236,6 +245,8 @@ def capture():
     import inspect
     import warnings
 
+    import numpy as np
+
     sys.path.insert(0, str(ROOT))
     sys.path.insert(0, str(HERE))
     import pv_ambient as pa
@@ -263,12 +274,20 @@ def capture():
     FakeCUDAKernel.__call__ = recording_call
     vol, tf, lights, _g, cam = scenes.scene(SCENE, SCENE_N)
     r = pa.Renderer(vol, transfer_function=tf, lights=lights, backend="cuda")
+    # the same medium as per-voxel arrays: a physical transfer function
+    phys = vol.copy()
+    scalars = np.asarray(vol.active_scalars, dtype=np.float64)
+    phys["sigma_t"] = 40.0 * np.clip(scalars, 0.0, None)
+    phys["albedo"] = np.full(vol.n_points, 0.8)
+    rp = pa.Renderer(phys, transfer_function=pa.TransferFunction.physical(), lights=lights, backend="cuda")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the simulator's uint64 hash wrap-around
         for label, opts in CASES:
             current["case"] = label
             t = time.perf_counter()
-            res = r.render(camera=cam, window_size=WINDOW, progress_bar=False, **opts)
+            opts = dict(opts)
+            renderer = rp if opts.pop("physical", False) else r
+            res = renderer.render(camera=cam, window_size=WINDOW, progress_bar=False, **opts)
             assert res.metadata["backend"] == "cuda", (label, res.metadata["backend"])
             print(f"  captured {label:26s} in {time.perf_counter() - t:5.1f} s", file=sys.stderr)
     return list(seen.values())
@@ -468,16 +487,17 @@ def _child(args, env_extra=None, timeout=1800):
 
 def _short(locator):
     """``pathtrace_kernel`` for ``pv_ambient._kernels.cuda:pathtrace_kernel``; a ray-cast
-    specialisation ``RAYCAST_KERNELS[(2, 1)]`` as ``raycast[single_scattering,baked]``."""
+    specialisation ``RAYCAST_KERNELS[(2, 1, 1)]`` as ``raycast[single_scattering,baked,grid]`` (a medium
+    classified in MODE_GRID: a physical transfer function's grids)."""
     name = locator.split(":", 1)[-1]
-    m = re.fullmatch(r"RAYCAST_KERNELS\[\((\d+), (\d+)\)\]", name)
+    m = re.fullmatch(r"RAYCAST_KERNELS\[\((\d+), (\d+), (\d+)\)\]", name)
     if m:
         sys.path.insert(0, str(ROOT))
         from pv_ambient._kernels import models
 
         names = {v: k.lower() for k, v in vars(models).items() if k.isupper() and isinstance(v, int)}
         model = names.get(int(m.group(1)), m.group(1))
-        return f"raycast[{model}{',baked' if int(m.group(2)) else ''}]"
+        return f"raycast[{model}{',baked' if int(m.group(2)) else ''}{',grid' if int(m.group(3)) else ''}]"
     return name
 
 

@@ -331,7 +331,7 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     from ._kernels.cuda import BLOCK, grid_for, raycast_kernel_for
 
     h, w = alpha.shape
-    kernel = raycast_kernel_for(args[0], args[5].baked)  # the model's own kernel (its id is compiled in)
+    kernel = raycast_kernel_for(args[0], args[5].baked, args[3].mode)  # the model's own (its id compiled in)
     d_rad = cuda.device_array(rad.shape, rad.dtype)
     d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
     with _launch():

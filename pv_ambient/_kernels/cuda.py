@@ -4,8 +4,9 @@ scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
 :func:`._jit.cuda_kernel`. A kernel only finds its thread's pixel and calls that function: the
 physics exists once, in the scalar functions.
 
-The ray cast has one kernel per specialisation (:data:`.raycast.SPECIALISATIONS`: the model and
-whether the lights' in-scattering is baked, constants of the kernel), as the CPU has one driver per
+The ray cast has one kernel per specialisation (:data:`.raycast.SPECIALISATIONS`: the model,
+whether the lights' in-scattering is baked and the medium's classification mode, constants of the
+kernel), as the CPU has one driver per
 specialisation: no branch over models is left in a kernel's sample loop, and each keeps in
 registers only what its model reads. Every kernel is defined here, in a module file, so that
 Numba's disk cache keeps it: a new process compiles nothing (docs/performance.rst, "GPU").
@@ -33,15 +34,15 @@ from .residual import residual_pixel
 BLOCK = (16, 8)
 
 
-def raycast_kernel(model, baked):
-    """The ray-cast kernel of specialisation ``(model, baked)`` (:data:`RAYCAST_KERNELS` holds them:
+def raycast_kernel(model, baked, mode):
+    """The ray-cast kernel of specialisation ``(model, baked, mode)`` (:data:`RAYCAST_KERNELS` holds them:
     use that, each is compiled once): one thread per pixel of rows [row0, row1)."""
 
     def raycast(view, march, medium, lights, grid, ambient, diffusion, out_rad, out_alpha, row0, row1):
         i, ty = cuda.grid(2)
         j = row0 + ty
         if i < out_alpha.shape[1] and j < row1:
-            raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
+            raycast_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
                           out_alpha)
 
     return cuda_kernel(raycast)
@@ -51,10 +52,10 @@ def raycast_kernel(model, baked):
 RAYCAST_KERNELS = {spec: raycast_kernel(*spec) for spec in SPECIALISATIONS}
 
 
-def raycast_kernel_for(model, baked):
+def raycast_kernel_for(model, baked, mode):
     """The kernel that renders ray-cast ``model`` (an id of :mod:`.models`) with the light grid's
-    ``baked`` field."""
-    return RAYCAST_KERNELS[specialisation(model, baked)]
+    ``baked`` field on a medium of classification ``mode``."""
+    return RAYCAST_KERNELS[specialisation(model, baked, mode)]
 
 
 @cuda_kernel

@@ -159,7 +159,7 @@ def walk(view, medium, lights, paths, k, dim, ox, oy, oz, dx, dy, dz, br, bgc, b
         wx = ox + t * dx
         wy = oy + t * dy
         wz = oz + t * dz
-        ar, ag, ab, er, eg, eb = medium_albedo_emission(medium, k0, k1, f, x, y, z)
+        ar, ag, ab, er, eg, eb = medium_albedo_emission(medium.mode, medium, k0, k1, f, x, y, z)
         # Emission: collision density σt·T, so weight σa/σt = 1 − a.
         lr += br * (1.0 - ar) * er
         lg += bgc * (1.0 - ag) * eg

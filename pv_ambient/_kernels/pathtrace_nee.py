@@ -175,7 +175,7 @@ def equiangular_nee(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz, ta, tb, view
         s, k0, k1, f = sigma_lookup(medium, x, y, z)
         if not s > 0.0:
             continue
-        ar, ag, ab, _, _, _ = medium_albedo_emission(medium, k0, k1, f, x, y, z)
+        ar, ag, ab, _, _, _ = medium_albedo_emission(medium.mode, medium, k0, k1, f, x, y, z)
         if ar <= 0.0 and ag <= 0.0 and ab <= 0.0:
             continue
         T, dim = ratio_track(px, py, pz, qx, qy, qz, ta, t, medium, SHADOW_RR_BELOW, k, dim)

@@ -25,7 +25,7 @@ from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
-from .medium import MODE_GRID, lut_coords, lut_value
+from .medium import MODE_GRID, MODE_LUT, lut_coords, lut_value
 from .models import AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
 from .phase import phase_eval
 from .preint import albedo_coord, tau_coord, theta_coord
@@ -44,12 +44,12 @@ def index_ray(w2i, ox, oy, oz, dx, dy, dz):
 
 
 @scalar(inline=True)
-def medium_sigma_color(medium, x, y, z):
+def medium_sigma_color(mode, medium, x, y, z):
     """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z) of ``medium`` (a
-    :class:`.records.Medium`); (k0, k1, f) locate the table entries for
-    :func:`medium_albedo_emission` (unused in GRID mode). Colour is the emission for a physical TF."""
-    mode, field, table, lut_lo, lut_inv, aux = medium.mode, medium.field, medium.table, medium.lut_lo, \
-        medium.lut_inv, medium.aux
+    :class:`.records.Medium`) classified in ``mode`` (``medium.mode``, or the constant of a ray-cast
+    specialisation); (k0, k1, f) locate the table entries for :func:`medium_albedo_emission` (unused
+    in GRID mode). Colour is the emission for a physical TF."""
+    field, table, lut_lo, lut_inv, aux = medium.field, medium.table, medium.lut_lo, medium.lut_inv, medium.aux
     s = trilinear(field, x, y, z)
     if mode == MODE_GRID:
         return (s, trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5),
@@ -60,9 +60,9 @@ def medium_sigma_color(medium, x, y, z):
 
 
 @scalar(inline=True)
-def medium_albedo_emission(medium, k0, k1, f, x, y, z):
-    """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color`."""
-    mode, table, aux = medium.mode, medium.table, medium.aux
+def medium_albedo_emission(mode, medium, k0, k1, f, x, y, z):
+    """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color` (``mode`` as there)."""
+    table, aux = medium.table, medium.aux
     if mode == MODE_GRID:
         return (trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
                 trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5))
@@ -390,15 +390,16 @@ def lit_source(model, baked, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid,
 
 
 @scalar
-def march_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
+def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
     """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
-    docstring; ``baked``: whether the lights' in-scattering is read from ``grid.inc``) and the ray's
+    docstring; ``baked``: whether the lights' in-scattering is read from ``grid.inc``; ``mode``: the
+    medium's classification mode, ``medium.mode``) and the ray's
     remaining transmittance; the ray stops at world distance ``t_end`` (opaque geometry; ``inf`` for
     none). The background is not added. The scene comes in the records of :mod:`.records`.
 
-    Each specialisation's driver (:data:`SPECIALISATIONS`) passes ``model`` and ``baked`` as constants:
-    Numba compiles this function once per pair (literal argument types) and drops every other
-    model's branch from the sample loop."""
+    Each specialisation's driver (:data:`SPECIALISATIONS`) passes ``model``, ``baked`` and ``mode`` as
+    constants: Numba compiles this function once per specialisation (literal argument types) and
+    drops every other model's and mode's branch from the sample loop."""
     cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
     step, jitter, seed, ert = march.step, march.jitter, march.seed, march.ert
     maj, block = medium.maj, medium.block
@@ -435,24 +436,25 @@ def march_pixel(model, baked, view, march, medium, lights, grid, ambient, diffus
                     tnext = te + step
                     continue
                 t_block = tex
-            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(medium, x, y, z)
+            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, medium, x, y, z)
             if sig > 0.0:
                 sr = cr
                 sg = cg
                 sb = cb
-                if model != EMISSION_ABSORPTION:
-                    ar, ag, ab, er, eg, eb = medium_albedo_emission(medium, k0, k1, f, x, y, z)
-                    if model == AMBIENT_OCCLUSION:
-                        occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
-                        sr = cr + ar * occ
-                        sg = cg + ag * occ
-                        sb = cb + ab * occ
-                    else:
-                        lr, lg, lb = lit_source(model, baked, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, dx, dy, dz,
-                                                w2i, lights, grid, ambient, diffusion)
-                        sr = ar * lr + (1.0 - ar) * er
-                        sg = ag * lg + (1.0 - ag) * eg
-                        sb = ab * lb + (1.0 - ab) * eb
+                if model == AMBIENT_OCCLUSION:
+                    occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
+                    ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, medium, k0, k1, f, x, y, z)
+                    sr = cr + ar * occ
+                    sg = cg + ag * occ
+                    sb = cb + ab * occ
+                elif model != EMISSION_ABSORPTION:
+                    # the light first: the albedo and emission are not held across its loop over lights
+                    lr, lg, lb = lit_source(model, baked, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, dx, dy, dz,
+                                            w2i, lights, grid, ambient, diffusion)
+                    ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, medium, k0, k1, f, x, y, z)
+                    sr = ar * lr + (1.0 - ar) * er
+                    sg = ag * lg + (1.0 - ag) * eg
+                    sb = ab * lb + (1.0 - ab) * eb
                 e = math.exp(-sig * (te - t))
                 w = T * (1.0 - e)
                 r += w * sr
@@ -467,7 +469,7 @@ def march_pixel(model, baked, view, march, medium, lights, grid, ambient, diffus
 
 
 @scalar
-def raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha):
+def raycast_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad, out_alpha):
     """Render pixel (i, j) into ``out_rad``/``out_alpha`` (the work of one thread of either
     driver: :func:`raycast_driver`'s loop, :func:`pv_ambient._kernels.cuda.raycast_kernel`'s
     thread); ``march.t_end`` is (H, W) (each pixel's ray end) or (1, 1) (one for all)."""
@@ -475,7 +477,7 @@ def raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diff
     t_end, bg = march.t_end, march.bg
     per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
     te = t_end[j, i] if per_pixel else t_end[0, 0]
-    r, gg, b, T = march_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, te)
+    r, gg, b, T = march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, te)
     out_rad[j, i, 0] = r + T * bg[0]
     out_rad[j, i, 1] = gg + T * bg[1]
     out_rad[j, i, 2] = b + T * bg[2]
@@ -504,37 +506,40 @@ def row_stride(n):
 TILE = 16
 
 
-#: The ray cast's specialisations, ``(model id, baked)``: each compiles to a driver (and a CUDA kernel,
-#: :mod:`.cuda`) of its own, the model and whether the lights' in-scattering is baked fixed when it is
-#: compiled — no branch over models is left in the sample loop, and a kernel keeps in registers only
-#: what its model reads (docs/architecture.rst, "One kernel per model"). Ambient scattering with baked
-#: lights marches as baked single scattering (its ball term is in the bake).
-SPECIALISATIONS = ((EMISSION_ABSORPTION, 0), (AMBIENT_OCCLUSION, 0), (SINGLE_SCATTERING, 0), (SINGLE_SCATTERING, 1),
-                   (AMBIENT_SCATTERING, 0), (DIFFUSION, 0), (DIFFUSION, 1))
+#: The ray cast's specialisations, ``(model id, baked, medium mode)``: each compiles to a driver (and a
+#: CUDA kernel, :mod:`.cuda`) of its own, the model, whether the lights' in-scattering is baked and how
+#: the medium is classified (:data:`.medium.MODE_LUT` or :data:`.medium.MODE_GRID`) fixed when it is
+#: compiled — no branch over models or modes is left in the sample loop, and a kernel keeps in
+#: registers only what its model reads (docs/architecture.rst, "One kernel per model"). Ambient
+#: scattering with baked lights marches as baked single scattering (its ball term is in the bake).
+SPECIALISATIONS = tuple((model, baked, mode) for model, baked in (
+    (EMISSION_ABSORPTION, 0), (AMBIENT_OCCLUSION, 0), (SINGLE_SCATTERING, 0), (SINGLE_SCATTERING, 1),
+    (AMBIENT_SCATTERING, 0), (DIFFUSION, 0), (DIFFUSION, 1)) for mode in (MODE_LUT, MODE_GRID))
 
 
-def specialisation(model, baked):
+def specialisation(model, baked, mode):
     """The :data:`SPECIALISATIONS` entry that renders ray-cast ``model`` with ``baked`` (the light
-    grid's ``baked`` field: non-zero when the lights' in-scattering is baked).
+    grid's ``baked`` field: non-zero when the lights' in-scattering is baked) on a medium of
+    classification ``mode``.
 
-    >>> specialisation(AMBIENT_SCATTERING, 3), specialisation(EMISSION_ABSORPTION, 1)
-    ((2, 1), (0, 0))
+    >>> specialisation(AMBIENT_SCATTERING, 3, MODE_LUT), specialisation(EMISSION_ABSORPTION, 1, MODE_GRID)
+    ((2, 1, 0), (0, 0, 1))
     """
     baked = int(bool(baked) and model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION))
     if baked and model == AMBIENT_SCATTERING:
         model = SINGLE_SCATTERING
-    return model, baked
+    return model, baked, int(mode)
 
 
-def raycast_driver(model, baked):
-    """The CPU driver of specialisation ``(model, baked)``: rows [row0, row1) of the image, one
+def raycast_driver(model, baked, mode):
+    """The CPU driver of specialisation ``(model, baked, mode)``: rows [row0, row1) of the image, one
     :func:`raycast_pixel` per pixel, the scene in the records of :mod:`.records`. The pixels are
     visited in :data:`TILE`² tiles (cache locality), the tiles in a golden-ratio stride order
     (:func:`row_stride`): ``prange`` hands each thread one contiguous run of iterations, which would
     otherwise be one band of the image (all of the volume, or none of it).
 
-    ``model`` and ``baked`` are the closure's constants: Numba compiles (and caches on disk, keyed by
-    them) one driver per specialisation."""
+    ``model``, ``baked`` and ``mode`` are the closure's constants: Numba compiles (and caches on disk,
+    keyed by them) one driver per specialisation."""
 
     def raycast_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
         W = out_alpha.shape[1]
@@ -548,8 +553,8 @@ def raycast_driver(model, baked):
             b = t - a * n_cols
             for j in range(row0 + a * TILE, min(row0 + (a + 1) * TILE, row1)):
                 for i in range(b * TILE, min((b + 1) * TILE, W)):
-                    raycast_pixel(model, baked, view, march, medium, lights, grid, ambient, diffusion, j, i, out_rad,
-                                  out_alpha)
+                    raycast_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, j, i,
+                                  out_rad, out_alpha)
 
     return driver(raycast_rows)
 
@@ -561,5 +566,5 @@ RAYCAST_DRIVERS = {spec: raycast_driver(*spec) for spec in SPECIALISATIONS}
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: the driver of its
     specialisation (:func:`specialisation`), the scene in the records of :mod:`.records`."""
-    RAYCAST_DRIVERS[specialisation(model, grid.baked)](view, march, medium, lights, grid, ambient, diffusion, row0,
+    RAYCAST_DRIVERS[specialisation(model, grid.baked, medium.mode)](view, march, medium, lights, grid, ambient, diffusion, row0,
                                                         row1, out_rad, out_alpha)

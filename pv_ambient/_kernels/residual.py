@@ -45,7 +45,7 @@ def control_at(model, view, medium, lights, grid, ambient, diffusion, bg, i, j, 
     x = px + t * qx
     y = py + t * qy
     z = pz + t * qz
-    ar, ag, ab, er, eg, eb = medium_albedo_emission(medium, k0, k1, f, x, y, z)
+    ar, ag, ab, er, eg, eb = medium_albedo_emission(medium.mode, medium, k0, k1, f, x, y, z)
     lr, lg, lb = lit_source(model, grid.baked != 0, x, y, z, ox + t * dx, oy + t * dy, oz + t * dz, dx, dy, dz, w2i,
                             lights, grid, ambient, diffusion)
     return (ar * lr + (1.0 - ar) * er, ag * lg + (1.0 - ag) * eg, ab * lb + (1.0 - ab) * eb)

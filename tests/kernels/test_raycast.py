@@ -63,7 +63,8 @@ def test_tiled_driver_renders_each_pixel_of_its_rows_once(monkeypatch):
     ref_alpha = np.full_like(alpha, np.nan)
     for j in range(r0, r1):
         for i in range(W):
-            raycast.raycast_pixel(*raycast.specialisation(args[0], args[5].baked), *args[1:], j, i, ref_rad, ref_alpha)
+            raycast.raycast_pixel(*raycast.specialisation(args[0], args[5].baked, args[3].mode), *args[1:], j, i,
+                                      ref_rad, ref_alpha)
     for rad, alpha in out:  # every thread count: the same pixels, bit for bit
         assert np.isnan(alpha[:r0]).all() and np.isnan(alpha[r1:]).all()
         assert (alpha[r0:r1] > 0).mean() > 0.2  # the volume covers part of the band
