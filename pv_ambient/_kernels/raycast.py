@@ -308,14 +308,13 @@ def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, amb
     ly = (y - s * qy - llo[1]) * linv[1]
     lz = (z - s * qz - llo[2]) * linv[2]
     c = -(ox * dx + oy * dy + oz * dz)
-    if nch == 1:
-        fr = math.exp(-trilinear_c(phi, lx, ly, lz, l))
-        fg = fr
-        fb = fr
-    else:
-        fr = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l))
-        fg = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 1))
-        fb = math.exp(-trilinear_c(phi, lx, ly, lz, 3 * l + 2))
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(phi, lx, ly, lz)  # once for every channel
+    fr = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, nch * l))
+    fg = fr
+    fb = fr
+    if nch != 1:
+        fg = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 1))
+        fb = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 2))
     dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
     return er * fr * dr, eg * fg * dg, eb * fb * db
 
