@@ -30,6 +30,7 @@ True
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
 import sys
 import warnings
@@ -37,11 +38,10 @@ import warnings
 import numpy as np
 
 
+from .device_cache import (DeviceCache, DeviceMemoryError, check_free, free_device_memory, host_flat,  # noqa: F401
+                           image_buffers, simulator)
+
 BACKENDS = ("auto", "cpu", "cuda")
-
-
-class DeviceMemoryError(MemoryError):
-    """A scene does not fit in the GPU's free memory."""
 
 
 _BLAS = None
@@ -76,9 +76,39 @@ def blas_one_thread():
         yield
 
 
-def simulator() -> bool:
-    """Whether Numba's CUDA simulator is on (``NUMBA_ENABLE_CUDASIM=1``)."""
-    return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"
+#: The BLAS limit of the render under way when it is entered on demand (:func:`blas_on_demand`).
+_BLAS_SCOPE = contextvars.ContextVar("pv_ambient_blas_scope", default=None)
+
+
+@contextlib.contextmanager
+def blas_on_demand():
+    """:func:`blas_one_thread` for a render whose kernels run on the GPU, entered only if the
+    render computes a stage (:func:`blas_before_stage`, called by the scene cache on a miss).
+
+    The limit exists for the CPU's Numba kernels, which spinning BLAS workers would slow
+    (docs/performance.rst, "BLAS threads"); a CUDA camera move computes no stage, calls no BLAS
+    and runs no CPU kernel, so it does not pay threadpoolctl's library calls (docs/performance.rst,
+    "Host work of a frame").
+
+    .. versionadded:: 0.4.0
+    """
+    scope = []
+    token = _BLAS_SCOPE.set(scope)
+    try:
+        yield
+    finally:
+        _BLAS_SCOPE.reset(token)
+        if scope:
+            scope[0].__exit__(None, None, None)
+
+
+def blas_before_stage():
+    """Enter the BLAS limit of the render under way, if it waits for a stage (:func:`blas_on_demand`)."""
+    scope = _BLAS_SCOPE.get()
+    if scope is not None and not scope:
+        limit = blas_one_thread()
+        limit.__enter__()
+        scope.append(limit)
 
 
 #: Per process: ``"problem"``, :func:`cuda_problem`'s answer once asked, and ``"warned"`` once ``auto``
@@ -236,76 +266,13 @@ def _caller_stacklevel() -> int:
     return level
 
 
-def free_device_memory() -> float:
-    """Free bytes on the current GPU (``inf`` in the simulator)."""
-    if simulator():
-        return float("inf")
-    from numba import cuda
-
-    free, _total = cuda.current_context().get_memory_info()
-    return float(free)
-
-
-class DeviceCache:
-    """Host arrays → device copies, kept between renders (keyed by the host array's identity;
-    the host array is held so its id cannot be reused). Entries unused for ``keep`` launches
-    are dropped."""
-
-    def __init__(self, keep=8):
-        self._items = {}
-        self._launch = 0
-        self.keep = keep
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes held on the device."""
-        return int(sum(d.nbytes for _h, d, _t in self._items.values()))
-
-    def need(self, arrays) -> int:
-        """Bytes that uploading ``arrays`` would add."""
-        return int(sum(a.nbytes for a in arrays if isinstance(a, np.ndarray) and id(a) not in self._items))
-
-    def get(self, arr):
-        """The device copy of ``arr`` (uploaded on first use)."""
-        item = self._items.get(id(arr))
-        if item is None or item[0] is not arr:
-            from numba import cuda
-
-            item = (arr, cuda.to_device(np.ascontiguousarray(arr)), self._launch)
-        self._items[id(arr)] = (item[0], item[1], self._launch)
-        return item[1]
-
-    def put(self, arr, dev):
-        """Register ``dev`` as the device copy of host array ``arr`` (computed on the GPU)."""
-        self._items[id(arr)] = (arr, dev, self._launch)
-
-    def args(self, args):
-        """``args`` with every numpy array, at any depth of its records (:mod:`._kernels.records`),
-        replaced by its device copy."""
-        from ._kernels.records import map_arrays
-
-        return map_arrays(self.get, tuple(args))
-
-    def tick(self):
-        """End of a launch: drop entries unused for ``keep`` launches."""
-        self._launch += 1
-        old = [k for k, (_h, _d, t) in self._items.items() if self._launch - t > self.keep]
-        for k in old:
-            del self._items[k]
-
-    def clear(self):
-        self._items.clear()
-
-
 def check_fits(cache: DeviceCache, arrays, extra_bytes=0):
     """Raise :class:`DeviceMemoryError` when uploading ``arrays`` plus ``extra_bytes`` of outputs
-    would not fit in the GPU's free memory."""
+    would not fit in the GPU's free memory (the GPU is asked only when there is something to
+    upload)."""
     need = cache.need(arrays) + int(extra_bytes)
-    free = free_device_memory()
-    if need > free:
-        raise DeviceMemoryError(f"backend='cuda': the scene needs {need / 2**20:.1f} MiB more device memory "
-                                f"but only {free / 2**20:.1f} MiB are free; use backend='cpu' (or 'auto', which "
-                                "falls back to the CPU) or a smaller volume / light_resolution")
+    if need:
+        check_free(need)
 
 
 @contextlib.contextmanager
@@ -325,19 +292,25 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     """Run the ray-cast kernel on rows [row0, row1) of ``rad``/``alpha`` (host arrays, filled in).
 
     ``args`` are :func:`pv_ambient._kernels.raycast.raycast_image`'s arguments before the rows
-    and outputs: the model id and the records."""
-    from numba import cuda
-
+    and outputs: the model id and the records. Raises :class:`DeviceMemoryError` before any upload
+    when the scene does not fit. The kernel writes into the cache's device image of this size
+    (:meth:`DeviceCache.output`); a whole image whose ``rad`` and ``alpha`` come from
+    :func:`image_buffers` comes home in one copy, other buffers in one copy each
+    (docs/performance.rst, "Host work of a frame")."""
     from ._kernels.cuda import BLOCK, grid_for, raycast_kernel_for
 
     h, w = alpha.shape
     kernel = raycast_kernel_for(args[0], args[5].baked, args[3].mode)  # the model's own (its id compiled in)
-    d_rad = cuda.device_array(rad.shape, rad.dtype)
-    d_alpha = cuda.device_array(alpha.shape, alpha.dtype)
+    dev_args = cache.args(args[1:], extra_bytes=cache.output_bytes(h, w))
+    flat, d_rad, d_alpha = cache.output(h, w)
     with _launch():
-        kernel[grid_for(w, row1 - row0), BLOCK](*cache.args(args[1:]), d_rad, d_alpha, row0, row1)
-    rad[row0:row1] = d_rad.copy_to_host()[row0:row1]
-    alpha[row0:row1] = d_alpha.copy_to_host()[row0:row1]
+        kernel[grid_for(w, row1 - row0), BLOCK](*dev_args, d_rad, d_alpha, row0, row1)
+    host = host_flat(rad, alpha) if (row0, row1) == (0, h) else None
+    if host is not None:
+        flat.copy_to_host(host)
+    else:
+        d_rad[row0:row1].copy_to_host(rad[row0:row1])
+        d_alpha[row0:row1].copy_to_host(alpha[row0:row1])
     cache.tick()
 
 
@@ -418,17 +391,14 @@ def run_raycast(args, rad, alpha, *, backend, asked, device_cache=None, progress
     seen between tiles and ``progress_bar`` counts them.
     """
     if backend == "cuda":
-        from ._kernels.records import arrays
-
-        try:
-            check_fits(device_cache, arrays(args), rad.nbytes + alpha.nbytes)
+        try:  # the memory check comes before any upload, and only when there is something to upload
+            raycast(device_cache, args, 0, rad.shape[0], rad, alpha)
         except DeviceMemoryError as exc:
             if asked == "cuda":
                 raise
             warnings.warn(f"{exc}; rendering on the CPU instead", RuntimeWarning, stacklevel=5)
             backend = "cpu"
         else:
-            raycast(device_cache, args, 0, rad.shape[0], rad, alpha)
             return "cuda"
     from ._kernels.raycast import raycast_image
 

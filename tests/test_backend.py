@@ -10,6 +10,7 @@ import pytest
 
 import pv_ambient as pa
 from pv_ambient import backend as bk
+from pv_ambient import device_cache as dcache
 from pv_ambient import datasets
 
 from .helpers import physical_grid, render, renderer
@@ -163,3 +164,109 @@ def test_cuda_problem_asks_the_device_once_per_process(monkeypatch):
     assert calls == [1]
     assert isinstance(first, RuntimeError) and str(first) == str(second)
     assert first is not second  # raised again and again, one instance would keep every raise's frames
+
+
+class _Dev:
+    """Stand-in device copy (a numpy array by another name)."""
+
+    def __init__(self, arr):
+        self.arr, self.nbytes = arr, arr.nbytes
+
+
+def _device_stand_in(monkeypatch):
+    """numba.cuda's uploads replaced by stand-ins, and the free-memory queries counted."""
+    from numba import cuda
+
+    seen = {"uploads": [], "queries": 0}
+
+    def to_device(arr):
+        seen["uploads"].append(arr.nbytes)
+        return _Dev(arr)
+
+    def free():
+        seen["queries"] += 1
+        return float("inf")
+
+    monkeypatch.setattr(cuda, "to_device", to_device)
+    monkeypatch.setattr(dcache, "free_device_memory", free)
+    return seen
+
+
+def test_device_cache_maps_a_record_once_and_asks_for_memory_only_to_upload(monkeypatch):
+    """Until 0.4.0 every launch walked every record's arrays and asked the GPU for its free memory
+    (docs/performance.rst, "Host work of a frame"). Records seen before are found whole; an array
+    of at most SMALL_BYTES is known by its contents (each frame builds the camera anew)."""
+    from pv_ambient._kernels.records import LightGrid, View
+
+    seen = _device_stand_in(monkeypatch)
+    cache = bk.DeviceCache(keep=2)
+    big = np.ones((32, 32, 32), np.float32)
+    grid = LightGrid(np.zeros(3), np.ones(3), big, big, big[:1, :1, :1, None], 0)
+
+    def view(x):
+        return View(np.full(16, x), np.eye(4), np.zeros(3), np.ones(3))
+
+    a = cache.args((view(1.0), grid), extra_bytes=64)
+    assert seen["queries"] == 1 and sorted(seen["uploads"]) == [4, 24, 24, 128, 128, big.nbytes]
+    b = cache.args((view(1.0), LightGrid(*grid)))  # the same values, new records and small arrays
+    assert b[1] is a[1] and b[0] is a[0] and seen["queries"] == 1 and len(seen["uploads"]) == 6
+    c = cache.args((view(2.0), grid))  # the camera moved: its 16 numbers uploaded, nothing asked
+    assert c[1] is a[1] and seen["uploads"][6:] == [128] and seen["queries"] == 1
+    assert c[0].w2i is a[0].w2i and c[0].cam is not a[0].cam
+    # the GPU recomputed the big array: the records holding the old copy are mapped again
+    cache.put(big, _Dev(big.copy()))
+    assert cache.args((view(2.0), grid))[1].tau is cache.get(big)
+    # unused for `keep` launches: dropped at the next sweep, with the records that used it
+    for _ in range(4):
+        cache.tick()
+    assert cache._items == {} and cache._records == {}
+    cache.args((view(2.0), grid))
+    assert seen["queries"] == 2  # a new upload: asked again
+
+
+def test_device_cache_refuses_before_uploading(monkeypatch):
+    seen = _device_stand_in(monkeypatch)
+    monkeypatch.setattr(dcache, "free_device_memory", lambda: 1000.0)
+    with pytest.raises(bk.DeviceMemoryError, match="more device memory"):
+        bk.DeviceCache().args((np.ones(1000),))
+    assert seen["uploads"] == []
+
+
+def test_image_buffers_are_one_host_buffer_laid_out_as_the_device_output():
+    """The CUDA backend brings radiance and alpha home in one copy when they are views of one
+    buffer in the device output's layout; other buffers (the progressive model's) in two."""
+    rad, alpha = bk.image_buffers(5, 7)
+    assert rad.shape == (5, 7, 3) and alpha.shape == (5, 7) and rad.flags.c_contiguous and alpha.flags.c_contiguous
+    assert rad.dtype == alpha.dtype == np.float32 and not rad.any() and not alpha.any()
+    flat = bk.host_flat(rad, alpha)
+    assert flat is not None and flat.shape == (5 * 7 * 4,)
+    flat[:] = np.arange(flat.size)
+    assert rad[0, 0, 2] == 2 and alpha[0, 0] == 5 * 7 * 3
+    assert bk.host_flat(np.zeros((5, 7, 3), np.float32), np.zeros((5, 7), np.float32)) is None
+    other_rad, other_alpha = bk.image_buffers(5, 7)
+    assert bk.host_flat(rad, other_alpha) is None and bk.host_flat(other_rad, alpha) is None
+
+
+def test_blas_limit_on_demand_is_entered_by_the_first_stage_only(monkeypatch):
+    """A CUDA camera move computes no stage on the CPU: it does not pay threadpoolctl's calls."""
+    import contextlib
+
+    log = []
+
+    @contextlib.contextmanager
+    def limit():
+        log.append("enter")
+        yield
+        log.append("exit")
+
+    monkeypatch.setattr(bk, "blas_one_thread", limit)
+    with bk.blas_on_demand():
+        pass
+    assert log == []
+    with bk.blas_on_demand():
+        bk.blas_before_stage()
+        bk.blas_before_stage()
+        assert log == ["enter"]
+    assert log == ["enter", "exit"]
+    bk.blas_before_stage()  # outside a render: nothing
+    assert log == ["enter", "exit"]

@@ -15,6 +15,7 @@ array-core objects.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,10 +61,13 @@ class GridGeometry:
         object.__setattr__(self, "box_hi", np.asarray(self.box_hi, dtype=np.float64))
         object.__setattr__(self, "world_to_index", np.linalg.inv(m))
 
-    @property
+    @functools.cached_property
     def spacing(self) -> np.ndarray:
-        """World length of one index step along each axis."""
-        return _column_norms(self.index_to_world[:3, :3])
+        """World length of one index step along each axis (read-only: computed once, as every
+        frame's request reads it; docs/performance.rst, "Host work of a frame")."""
+        out = _column_norms(self.index_to_world[:3, :3])
+        out.setflags(write=False)
+        return out
 
     @property
     def corners(self) -> np.ndarray:
@@ -72,9 +76,10 @@ class GridGeometry:
         idx = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
         return self.to_world(idx)
 
-    @property
+    @functools.cached_property
     def bounds(self) -> tuple:
-        """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the box."""
+        """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the box (computed
+        once)."""
         c = self.corners
         lo, hi = c.min(axis=0), c.max(axis=0)
         return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])

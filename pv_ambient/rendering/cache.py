@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+from ..backend import blas_before_stage
+
 #: Stages computed from σt and the geometry alone (no albedo, emission or colour).
 SIGMA_ONLY = frozenset({"majorant", "light_grid", "sigma_l", "tau"})
 #: Stages that depend on nothing in the scene but their key (the preintegrated table slices).
@@ -36,6 +38,7 @@ class SceneCache:
     def get(self, key: tuple, build: Callable[[], object]):
         """The entry ``key``, built by ``build()`` (and kept) when missing."""
         if key not in self._entries:
+            blas_before_stage()  # a stage is computed: the CPU's kernels and BLAS may run
             self._entries[key] = build()
         return self._entries[key]
 

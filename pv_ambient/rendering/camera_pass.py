@@ -142,8 +142,8 @@ def render_camera_pass(renderer, req, model, options, records=None) -> RenderRes
     (the progressive model's control reads them)."""
     t_start = time.perf_counter()
     w, h = req.window_size
-    rad = np.zeros((h, w, 3), np.float32)
-    alpha = np.zeros((h, w), np.float32)
+    # one buffer for both (the GPU's image comes home in one copy); the ray cast writes every pixel
+    rad, alpha = backend.image_buffers(h, w, zero=renderer.geometry.is_empty)
     inputs = gather_inputs(renderer, req, model, options)
     t_prep = time.perf_counter() - t_start
     bake, used = False, req.backend

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from ..backend import blas_one_thread, check_backend, resolve_backend
+from ..backend import blas_on_demand, blas_one_thread, check_backend, resolve_backend
 from ..inputs.grid import Volume, volume_from_image
 from ..inputs.lights import as_lights, needs_camera
 from ..inputs.transfer import as_transfer_function
@@ -301,7 +301,10 @@ class Renderer:
         A point light's fall-off ``I/d²`` is clamped at ``d = step/4`` (a sample closer than a
         quarter step to the light cannot resolve the singularity).
         """
-        return self.render_request(self.request(**_arguments(locals())))
+        # the keywords are render()'s own: checked by build_request, without binding them to the
+        # signature again as request() must (a frame's host work: docs/performance.rst)
+        args = {k: v for k, v in locals().items() if k not in ("self", "model_options", "__class__")}
+        return self.render_request(build_request(self, **args, model_options=model_options))
 
     def request(self, **arguments) -> RenderRequest:
         """Check :meth:`render`'s arguments (the same keywords, the same defaults) once into a
@@ -320,7 +323,9 @@ class Renderer:
         compile_notice(model)
         warn_unused_options(req, model)
         options = {**req.options, **extra}
-        with blas_one_thread():  # no spinning BLAS workers beside the Numba kernels (backend.py)
+        # no spinning BLAS workers beside the Numba kernels (backend.py); on the GPU only once a
+        # stage runs on the CPU
+        with blas_one_thread() if req.backend == "cpu" else blas_on_demand():
             if model == "path_traced":
                 res = render_path_traced(self, req, options)
             elif model == "progressive":
@@ -329,7 +334,11 @@ class Renderer:
                 res = render_camera_pass(self, req, model, options)
         if MODEL_SPECS[req.model].lit:
             res.metadata["light_rig"] = self.light_rig
-            warn_black(self, res, req.background)
+            # its causes (lights, transfer function) do not move with the camera: decided once per
+            # light set and model, not at every frame
+            key = (tuple(self.lights), res.metadata["model"])
+            if key not in self.stages.black_checked and warn_black(self, res, req.background):
+                self.stages.black_checked.add(key)
         return res
 
     def path_trace(self, camera=None, window_size=None, *, phase=None, samples_per_pixel=DEFAULT_SPP,
@@ -397,13 +406,6 @@ class Renderer:
 
 #: The keywords of :meth:`Renderer.render`, read once: :meth:`Renderer.request` checks the same.
 _RENDER_SIGNATURE = inspect.signature(Renderer.render)
-
-
-def _arguments(frame_locals) -> dict:
-    """:meth:`Renderer.render`'s keyword arguments from its ``locals()`` (model options spread)."""
-    args = {k: v for k, v in frame_locals.items() if k not in ("self", "model_options", "__class__")}
-    args.update(frame_locals["model_options"])
-    return args
 
 
 def render(grid, *, transfer_function=None, camera=None, window_size=None, lights=None, model="emission_absorption",

@@ -117,13 +117,14 @@ def warn_unused_lights(lights, model):
 
 def warn_black(renderer, result, background):
     """Warn when a lit render holds no light at all (only the background where the volume is):
-    says why — no lights given, every light dropped, or a transfer function that does not scatter."""
+    says why — no lights given, every light dropped, or a transfer function that does not scatter.
+    Returns whether the picture decided it (False when the volume covers no pixel)."""
     alpha = result.alpha
     if not np.any(alpha > 0.0):
-        return
+        return False
     rest = result.radiance.astype(np.float64) - (1.0 - alpha.astype(np.float64))[..., None] * np.asarray(background)
     if np.max(rest) > 1e-5 * float(np.max(background)):  # float32 rounding of T·background
-        return
+        return True
     if not renderer.lights:
         cause = "no lights were given (lights=() or []); leave lights out for the default light rig"
     elif not renderer.optics.has_scattering:
@@ -133,6 +134,7 @@ def warn_black(renderer, result, background):
                  "of optical depth > 700")
     warnings.warn(f"model={result.metadata.get('requested_model', result.metadata.get('model'))!r} rendered black: "
                   f"{cause}", UserWarning, stacklevel=4)
+    return True
 
 
 def available_memory() -> int:
@@ -152,13 +154,22 @@ def available_memory() -> int:
         return 1 << 62
 
 
+#: The largest image-buffer size known to fit: one eighth of the memory available when it was
+#: checked at most, so a later request that could fail is checked again.
+_FITTED = [0]
+
+
 def check_image_memory(size, model):
     """Raise MemoryError (naming ``window_size`` and the bytes) before any work when a render of
     ``size`` pixels would not fit in the memory available."""
     w, h = size
     need = int(w) * int(h) * BYTES_PER_PIXEL.get(model, BYTES_PER_PIXEL_RAYCAST)
+    if need <= _FITTED[0]:  # no larger than buffers that fitted before: not asked again at every frame
+        return
     have = available_memory()
-    if need > have:
+    if need <= have:
+        _FITTED[0] = max(_FITTED[0], min(need, have // 8))
+    else:
         raise MemoryError(f"window_size={(int(w), int(h))} needs about {need / 2**30:.3g} GiB ({need} bytes) for "
                           f"the image buffers of model={model!r}, more than the {have / 2**30:.3g} GiB available; "
                           "render a smaller image")
@@ -176,50 +187,95 @@ class _NoBar:
         pass
 
 
-class _DelayedBar:
-    """A tqdm bar that appears only after ``delay`` seconds and then refreshes its elapsed time
-    every second (every 10 s when stderr is not a terminal) from a thread: a stage may run long
-    without a step to report."""
+class _Watcher:
+    """The one thread that shows and refreshes every delayed bar of the process: a stage's bar costs
+    a list entry, not a thread started and joined (a camera move enters a few stages, each cached,
+    and its host work is kept to what the frame needs: docs/performance.rst, "Host work of a
+    frame"). Started at the first delayed bar; a daemon that sleeps while no bar is open."""
 
-    def __init__(self, name, total, delay):
+    def __init__(self):
         import threading
 
-        self.name, self.total, self.n, self.bar = name, total, 0, None
-        self._done = threading.Event()
-        self._lock = threading.Lock()
-        self._thread = threading.Thread(target=self._run, args=(delay,), daemon=True)
-        self._thread.start()
+        self.cond = threading.Condition()
+        self.bars = []
+        self._thread = None
+        self._wake = None  # when the thread wakes next (None: when notified)
 
-    def _run(self, delay):
-        if self._done.wait(delay):
-            return
+    def add(self, bar):
+        import threading
+
+        with self.cond:
+            self.bars.append(bar)
+            if self._thread is None or not self._thread.is_alive():  # (a forked child has none)
+                self._thread = threading.Thread(target=self._run, name="pv_ambient stage bars", daemon=True)
+                self._thread.start()
+            elif self._wake is None or bar.start + bar.delay < self._wake:
+                self.cond.notify()  # it sleeps past this bar's time: wake it to plan again
+
+    def remove(self, bar):
+        with self.cond:
+            bar.closed = True
+            if bar in self.bars:
+                self.bars.remove(bar)
+
+    def _run(self):
+        import time
+
+        every = 1.0 if getattr(sys.stderr, "isatty", lambda: False)() else 10.0  # a log file: fewer lines
+        with self.cond:
+            while True:
+                now = time.monotonic()
+                self._wake = None
+                for bar in self.bars:
+                    if bar.bar is None and now >= bar.start + bar.delay:
+                        bar.show(now)
+                        bar.next_refresh = now + every
+                    elif bar.bar is not None and now >= bar.next_refresh:
+                        bar.bar.refresh()
+                        bar.next_refresh = now + every
+                    due = bar.start + bar.delay if bar.bar is None else bar.next_refresh
+                    self._wake = due if self._wake is None else min(self._wake, due)
+                self.cond.wait(None if self._wake is None else max(self._wake - now, 0.0))
+
+
+_WATCHER = _Watcher()
+if hasattr(os, "register_at_fork"):  # a forked child (a process pool) starts its own, with no bar open
+    os.register_at_fork(after_in_child=lambda: globals().update(_WATCHER=_Watcher()))
+
+
+class _DelayedBar:
+    """A tqdm bar that appears only after ``delay`` seconds and then refreshes its elapsed time
+    every second (every 10 s when stderr is not a terminal): a stage may run long without a step to
+    report. Shown and refreshed by the process's one :class:`_Watcher` thread."""
+
+    def __init__(self, name, total, delay):
+        import time
+
+        self.name, self.total, self.n, self.bar, self.closed = name, total, 0, None, False
+        self.start, self.delay, self.next_refresh = time.monotonic(), delay, 0.0
+        _WATCHER.add(self)
+
+    def show(self, now):
+        """Called by the watcher (its lock held) once the delay has passed."""
         from tqdm.auto import tqdm
 
-        with self._lock:
-            if self._done.is_set():
-                return
-            fmt = {"bar_format": "{desc}: {elapsed} elapsed"} if self.total == 1 else {}  # one step: the time
-            self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False, **fmt)
-            self.bar.start_t -= delay  # elapsed time counts from the start of the stage
-        every = 1.0 if getattr(sys.stderr, "isatty", lambda: False)() else 10.0  # a log file: fewer lines
-        while not self._done.wait(every):
-            with self._lock:
-                self.bar.refresh()
+        fmt = {"bar_format": "{desc}: {elapsed} elapsed"} if self.total == 1 else {}  # one step: the time
+        self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False, **fmt)
+        self.bar.start_t -= now - self.start  # elapsed time counts from the start of the stage
 
     def update(self, n=1):
-        with self._lock:
+        with _WATCHER.cond:
             self.n += n
             if self.bar is not None:
                 self.bar.update(n)
 
     def set_postfix_str(self, text):
-        with self._lock:
+        with _WATCHER.cond:
             if self.bar is not None:
                 self.bar.set_postfix_str(text)
 
     def close(self):
-        self._done.set()
-        self._thread.join()
+        _WATCHER.remove(self)
         if self.bar is not None:
             self.bar.close()
 

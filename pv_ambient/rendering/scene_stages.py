@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 from .._kernels import records as K
+from ..backend import blas_before_stage
 from .presets import MAJORANT_BLOCK, TAU_OPAQUE, light_resolution_for
 from .cache import SceneCache
 
@@ -59,6 +60,9 @@ class SceneStages:
         self.cache = SceneCache() if cache is None else cache
         self.timings = {}
         self._device = _DeviceSlot()
+        #: (lights, model) pairs whose pictures decided the "rendered black" check
+        #: (:func:`pv_ambient.rendering.request.warn_black`): its causes do not move with the camera
+        self.black_checked = set()
 
     def __getstate__(self):
         # the GPU-resident copies stay behind: stages sent to another process (a Dask worker)
@@ -93,6 +97,7 @@ class SceneStages:
         return self.device_cache if backend == "cuda" else None
 
     def _timed(self, name, build):
+        blas_before_stage()  # a stage is computed: the CPU's kernels and BLAS may run
         t = time.perf_counter()
         out = build()
         self.timings[name] = time.perf_counter() - t

@@ -12,6 +12,7 @@ import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import backend as bk  # noqa: E402
+from pv_ambient import device_cache as dc  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
 from pv_ambient.cli import main  # noqa: E402
 
@@ -67,8 +68,57 @@ after = {k: id(d) for k, (h, d, t) in cache._items.items() if h.nbytes > 4096}
 out["camera_move_reuploads"] = sum(1 for k in before if k in after and after[k] != before[k])
 out["camera_move_kept"] = sum(1 for k in before if k in after)
 
+# host work of a camera move (docs/performance.rst, "Host work of a frame"): the records already on
+# the device are found whole (only the camera's, which moved, is mapped), one upload (the camera's
+# parameters), one download, no free-memory query, no BLAS limit; a first frame computes stages
+# on the CPU and enters the BLAS limit once
+from numba import cuda as sim_cuda  # noqa: E402
+from numba.cuda.simulator.cudadrv.devicearray import FakeCUDAArray  # noqa: E402
+
+from pv_ambient._kernels import records as krec  # noqa: E402
+
+events = {"mapped": [], "uploads": 0, "downloads": 0, "mem_queries": 0, "blas": 0}
+real = {"map_arrays": krec.map_arrays, "to_device": sim_cuda.to_device, "copy_to_host": FakeCUDAArray.copy_to_host,
+        "free": dc.free_device_memory, "blas": bk.blas_one_thread}
+
+
+def _mapped(fn, record, _depth=[0]):
+    if _depth[0] == 0:
+        events["mapped"].append(type(record).__name__)
+    _depth[0] += 1
+    try:
+        return real["map_arrays"](fn, record)
+    finally:
+        _depth[0] -= 1
+
+
+def _counted(name, key):
+    def call(*a, **k):
+        events[key] += 1
+        return real[name](*a, **k)
+    return call
+
+
+krec.map_arrays = _mapped
+sim_cuda.to_device = _counted("to_device", "uploads")
+FakeCUDAArray.copy_to_host = _counted("copy_to_host", "downloads")
+dc.free_device_memory = _counted("free", "mem_queries")
+bk.blas_one_thread = _counted("blas", "blas")
+fresh = pa.Renderer(grid, transfer_function=tf, lights=lights, backend="cuda")
+fresh.render(window_size=(12, 10), model="emission_absorption", quality="preview")
+out["first_frame"] = dict(events, mapped=sorted(set(events["mapped"])))
+moved = {"position": (2.5, -2.5, 2.0), "focal_point": (0, 0, 0), "view_up": (0, 0, 1)}
+for cam in (cams[1], moved):  # the second: a camera no render has used
+    events.update(mapped=[], uploads=0, downloads=0, mem_queries=0, blas=0)
+    res = gpu.render(window_size=(12, 10), model="single_scattering", quality="preview", camera=cam)
+out["camera_move"] = dict(events)
+ref = cpu.render(window_size=(12, 10), model="single_scattering", quality="preview", camera=moved)
+out["camera_move"]["rel"] = float(np.abs(ref.radiance - res.radiance).max() / np.abs(ref.radiance).max())
+krec.map_arrays, sim_cuda.to_device, FakeCUDAArray.copy_to_host = real["map_arrays"], real["to_device"], real["copy_to_host"]
+dc.free_device_memory, bk.blas_one_thread = real["free"], real["blas"]
+
 # memory: a scene that does not fit -> clear error with "cuda", CPU fallback with a warning under "auto"
-bk.free_device_memory = lambda: 1000.0
+dc.free_device_memory = lambda: 1000.0
 small = pa.Renderer(grid, transfer_function=tf)
 try:
     small.render(window_size=(8, 8), backend="cuda")
@@ -80,7 +130,7 @@ with warnings.catch_warnings(record=True) as w:
     res = small.render(window_size=(8, 8), backend="auto")
 out["oom_auto_backend"] = res.metadata["backend"]
 out["oom_auto_warning"] = [str(x.message) for x in w if "CPU" in str(x.message)]
-bk.free_device_memory = lambda: float("inf")
+dc.free_device_memory = lambda: float("inf")
 
 # CLI: the JSON scene's "backend" and --backend
 tmp = Path(sys.argv[1])

@@ -54,6 +54,21 @@ def test_device_resident_caches(sim):
     assert out["camera_move_reuploads"] == 0
 
 
+def test_camera_move_host_work(sim):
+    """A camera move's host work is what the frame needs (docs/performance.rst, "Host work of a
+    frame"): until 0.4.0 every launch walked every record's arrays, asked the GPU for its free
+    memory, downloaded radiance and alpha apart and entered threadpoolctl's BLAS limit."""
+    out, _ = sim
+    move = out["camera_move"]
+    assert move["mapped"] == ["View"]  # the camera's record; the volume's, lights' and tables' found whole
+    assert move["uploads"] == 1  # the camera's 16 parameters
+    assert move["downloads"] == 1 and move["mem_queries"] == 0 and move["blas"] == 0
+    assert move["rel"] <= REL_TOL
+    first = out["first_frame"]  # a new scene: uploads, after asking whether they fit; stages on the CPU
+    assert first["mem_queries"] == 1 and first["uploads"] > 1 and first["blas"] == 1 and first["downloads"] == 1
+    assert "Medium" in first["mapped"]
+
+
 def test_device_memory_error_and_auto_fallback(sim):
     out, _ = sim
     assert out["oom_error"] and "more device memory" in out["oom_error"] and "backend='cpu'" in out["oom_error"]

@@ -175,6 +175,25 @@ def test_delayed_stage_bar_appears_only_after_two_seconds(monkeypatch, capsys):
     assert "slow stage" in capsys.readouterr().err
 
 
+def test_delayed_stage_bars_share_one_thread(monkeypatch):
+    """Each delayed bar started and joined a thread of its own until 0.4.0: a camera move's three
+    cached stages paid for three (docs/performance.rst, "Host work of a frame")."""
+    import threading
+
+    from pv_ambient.rendering import request
+
+    monkeypatch.delenv("PYTEST_CURRENT_TEST")
+    with request.stage_bar(None, "first stage"):
+        pass
+    started = []
+    real = threading.Thread.start
+    monkeypatch.setattr(threading.Thread, "start", lambda self: started.append(self.name) or real(self))
+    for name in ("light volumes", "baked in-scattering", "ray cast"):
+        with request.stage_bar(None, name) as bar:
+            bar.update()
+    assert started == [] and request._WATCHER.bars == []
+
+
 def test_compile_notice_is_one_line_once(monkeypatch, capsys):
     """Why: the first call of each model compiled for ~9 s without a word."""
     from types import SimpleNamespace
