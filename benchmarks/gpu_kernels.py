@@ -253,6 +253,8 @@ def capture():
     import scenes
     from numba.cuda.simulator.kernel import FakeCUDAKernel
 
+    from pv_ambient.inputs.grid import Volume
+
     seen = {}
     current = {"case": None}
     launch = FakeCUDAKernel.__call__
@@ -275,10 +277,9 @@ def capture():
     vol, tf, lights, _g, cam = scenes.scene(SCENE, SCENE_N)
     r = pa.Renderer(vol, transfer_function=tf, lights=lights, backend="cuda")
     # the same medium as per-voxel arrays: a physical transfer function
-    phys = vol.copy()
-    scalars = np.asarray(vol.active_scalars, dtype=np.float64)
-    phys["sigma_t"] = 40.0 * np.clip(scalars, 0.0, None)
-    phys["albedo"] = np.full(vol.n_points, 0.8)
+    scalars = np.asarray(vol.arrays[vol.active], dtype=np.float64)
+    phys = Volume({"sigma_t": 40.0 * np.clip(scalars, 0.0, None), "albedo": np.full(scalars.shape, 0.8)},
+                  association=vol.association, geometry=vol.geometry)
     rp = pa.Renderer(phys, transfer_function=pa.TransferFunction.physical(), lights=lights, backend="cuda")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the simulator's uint64 hash wrap-around
