@@ -26,7 +26,8 @@ from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .medium import MODE_GRID, MODE_LUT, lut_coords, lut_value
-from .models import AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
+from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
+                     SINGLE_SCATTERING)
 from .phase import phase_eval
 from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
@@ -505,12 +506,13 @@ def row_stride(n):
 TILE = 16
 
 
-#: The ray cast's specialisations, ``(model id, baked, medium mode)``: each compiles to a driver (and a
-#: CUDA kernel, :mod:`.cuda`) of its own, the model, whether the lights' in-scattering is baked and how
+#: The ray cast's specialisations, ``(model id, baked, medium mode)``: each compiles to a CUDA kernel
+#: (:mod:`.cuda`) of its own, the model, whether the lights' in-scattering is baked and how
 #: the medium is classified (:data:`.medium.MODE_LUT` or :data:`.medium.MODE_GRID`) fixed when it is
 #: compiled — no branch over models or modes is left in the sample loop, and a kernel keeps in
 #: registers only what its model reads (docs/architecture.rst, "One kernel per model"). Ambient
-#: scattering with baked lights marches as baked single scattering (its ball term is in the bake).
+#: scattering with baked lights marches as baked single scattering (its ball term is in the bake). The
+#: CPU drivers fix the model only (:func:`raycast_driver`).
 SPECIALISATIONS = tuple((model, baked, mode) for model, baked in (
     (EMISSION_ABSORPTION, 0), (AMBIENT_OCCLUSION, 0), (SINGLE_SCATTERING, 0), (SINGLE_SCATTERING, 1),
     (AMBIENT_SCATTERING, 0), (DIFFUSION, 0), (DIFFUSION, 1)) for mode in (MODE_LUT, MODE_GRID))
@@ -530,17 +532,22 @@ def specialisation(model, baked, mode):
     return model, baked, int(mode)
 
 
-def raycast_driver(model, baked, mode):
-    """The CPU driver of specialisation ``(model, baked, mode)``: rows [row0, row1) of the image, one
+def raycast_driver(model):
+    """The CPU driver of ray-cast ``model``: rows [row0, row1) of the image, one
     :func:`raycast_pixel` per pixel, the scene in the records of :mod:`.records`. The pixels are
     visited in :data:`TILE`² tiles (cache locality), the tiles in a golden-ratio stride order
     (:func:`row_stride`): ``prange`` hands each thread one contiguous run of iterations, which would
     otherwise be one band of the image (all of the volume, or none of it).
 
-    ``model``, ``baked`` and ``mode`` are the closure's constants: Numba compiles (and caches on disk,
-    keyed by them) one driver per specialisation."""
+    ``model`` is the closure's constant: Numba compiles (and caches on disk, keyed by it) one driver
+    per model. Whether the lights are baked and the medium's mode stay run-time values on the CPU:
+    each constant more would double the drivers a user waits to compile, and a CPU thread has no
+    register file that every thread of a launch pays for (docs/architecture.rst, "One kernel per
+    model"). The CUDA kernels fix all three (:data:`SPECIALISATIONS`)."""
 
     def raycast_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
+        baked = 1 if grid.baked != 0 else 0
+        mode = medium.mode
         W = out_alpha.shape[1]
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
@@ -558,12 +565,11 @@ def raycast_driver(model, baked, mode):
     return driver(raycast_rows)
 
 
-#: :func:`raycast_driver` of every specialisation (compiled on first use).
-RAYCAST_DRIVERS = {spec: raycast_driver(*spec) for spec in SPECIALISATIONS}
+#: :func:`raycast_driver` of every ray-cast model (compiled on first use).
+RAYCAST_DRIVERS = {model: raycast_driver(model) for model in RAYCAST_MODELS}
 
 
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
-    """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: the driver of its
-    specialisation (:func:`specialisation`), the scene in the records of :mod:`.records`."""
-    RAYCAST_DRIVERS[specialisation(model, grid.baked, medium.mode)](view, march, medium, lights, grid, ambient, diffusion, row0,
-                                                        row1, out_rad, out_alpha)
+    """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: the driver of its model, the
+    scene in the records of :mod:`.records`."""
+    RAYCAST_DRIVERS[model](view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha)

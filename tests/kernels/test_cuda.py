@@ -120,13 +120,13 @@ def test_physics_exists_once():
 
 
 def test_one_kernel_per_specialisation(sim):
-    """The CUDA side compiles one ray-cast kernel per specialisation of the CPU's, and each model's
-    render launched its own."""
+    """The CUDA side compiles one ray-cast kernel per specialisation (model, baked lights, medium
+    mode), the CPU one driver per model, and each model's render launched its own kernel."""
     from pv_ambient._kernels import raycast
 
     out, _ = sim
     assert [tuple(k) for k in out["raycast_kernels"]] == sorted(raycast.SPECIALISATIONS)
-    assert sorted(raycast.RAYCAST_DRIVERS) == sorted(raycast.SPECIALISATIONS)
+    assert sorted(raycast.RAYCAST_DRIVERS) == sorted(raycast.RAYCAST_MODELS)  # the CPU: one driver per model
     launched = out["launched"]
     assert launched["emission_absorption/cam0"] == [[0, 0, 0]]
     assert launched["ambient_occlusion/cam0"] == [[1, 0, 0]]

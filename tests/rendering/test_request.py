@@ -203,7 +203,7 @@ def test_compile_notice_is_one_line_once(monkeypatch, capsys):
 
     fresh = SimpleNamespace(signatures=[], _cache=SimpleNamespace(_cache_file=SimpleNamespace(
         _index_path="/nonexistent/raycast.nbi")))
-    monkeypatch.setattr(raycast, "RAYCAST_DRIVERS", {spec: fresh for spec in raycast.SPECIALISATIONS})
+    monkeypatch.setattr(raycast, "RAYCAST_DRIVERS", {m: fresh for m in raycast.RAYCAST_DRIVERS})
     monkeypatch.setattr(request, "_NOTICED", [])
     request.compile_notice("ambient_scattering")
     request.compile_notice("diffusion")
