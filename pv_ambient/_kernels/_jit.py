@@ -24,6 +24,8 @@ kernels take the same set and the same disk cache (:func:`cuda_options`).
 
 from __future__ import annotations
 
+import os
+
 import numba
 
 FASTMATH = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
@@ -61,15 +63,13 @@ def is_scalar(obj) -> bool:
 
 
 def _simulator() -> bool:
-    import os
-
     return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"
 
 
 def cuda_options(device=False, inline=False) -> dict:
     """``numba.cuda.jit``'s options for a kernel (``device=False``: Numba's disk cache on) or a device
     function (``inline``: inlined by NVVM, ``forceinline``): the CPU's fastmath set, so the GPU
-    computes what the CPU computes (docs/architecture.rst, "CUDA kernels"). The simulator takes
+    computes what the CPU computes (docs/architecture.rst, "One kernel per model"). The simulator takes
     neither ``forceinline`` nor a cache."""
     opts = dict(fastmath=set(FASTMATH))
     if device:

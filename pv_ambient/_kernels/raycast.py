@@ -392,14 +392,15 @@ def lit_source(model, baked, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid,
 @scalar
 def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
     """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
-    docstring; ``baked``: whether the lights' in-scattering is read from ``grid.inc``; ``mode``: the
-    medium's classification mode, ``medium.mode``) and the ray's
-    remaining transmittance; the ray stops at world distance ``t_end`` (opaque geometry; ``inf`` for
-    none). The background is not added. The scene comes in the records of :mod:`.records`.
+    docstring) and the ray's remaining transmittance. ``baked``: whether the lights' in-scattering
+    is read from ``grid.inc``; ``mode``: the medium's classification mode (``medium.mode``). The ray
+    stops at world distance ``t_end`` (opaque geometry; ``inf`` for none). The background is not
+    added. The scene comes in the records of :mod:`.records`.
 
-    Each specialisation's driver (:data:`SPECIALISATIONS`) passes ``model``, ``baked`` and ``mode`` as
-    constants: Numba compiles this function once per specialisation (literal argument types) and
-    drops every other model's and mode's branch from the sample loop."""
+    A CUDA kernel passes ``model``, ``baked`` and ``mode`` as constants (:data:`SPECIALISATIONS`), a
+    CPU driver ``model`` (:func:`raycast_driver`): Numba compiles this function once per set of
+    constants (literal argument types) and drops the other models' and modes' branches from the
+    sample loop."""
     cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
     step, jitter, seed, ert = march.step, march.jitter, march.seed, march.ert
     maj, block = medium.maj, medium.block
