@@ -58,10 +58,9 @@ from pathlib import Path
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
+import pv_ambient as pa  # noqa: E402  (before Numba: the packet driver's load policy)
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
-
-import pv_ambient as pa  # noqa: E402
 from pv_ambient._kernels import records as K  # noqa: E402
 from pv_ambient._kernels.geometry import camera_ray, ray_box  # noqa: E402
 from pv_ambient._kernels.majorant import block_at, block_span  # noqa: E402
@@ -214,7 +213,7 @@ def count_samples(view, medium, step, ert, W, H, counts, trans):
                             continue
                         t_block = tex
                     n += 1
-                    sig = medium_sigma_color(medium, x, y, z)[0]
+                    sig = medium_sigma_color(medium.mode, medium, x, y, z)[0]
                     if sig > 0.0:
                         T *= np.exp(-sig * (te - t))
                         if T < ert:
@@ -517,6 +516,18 @@ def drag(frames, steps=36):
 
 # --- main --------------------------------------------------------------------------------------------
 
+def packet_line():
+    """Which camera-pass driver and load policy ran (pv_ambient._kernels.packet, .cpu_features)."""
+    from pv_ambient._kernels import packet
+    from pv_ambient._kernels.cpu_features import load_policy
+
+    pol = load_policy()
+    if not packet.enabled():
+        return "camera pass: the scalar driver everywhere (PV_AMBIENT_PACKETS=0)"
+    return (f"camera pass: emission-absorption of a table TF in packets of {packet.LANES} rays, loads "
+            f"{pol['loads']} ({pol['why']}); other models one ray at a time")
+
+
 def command_line():
     return "$ python " + " ".join(sys.argv)
 
@@ -588,7 +599,7 @@ def main(argv=None):
     table = [f"{SCENE} {args.n}³ ({scenes.DESCRIPTIONS[SCENE]}), {size[0]}x{size[1]}, "
              f"step {frames.step:.5f} (half a voxel), early termination {ERT:g}; "
              f"{threads} Numba threads; VTK fixed_point EA interleaved frame by frame; medians of {args.repeats}"
-             f" after a warm-up pair", ""]
+             f" after a warm-up pair", packet_line(), ""]
     table += format_table(rows)
     lines += table
     for flag, fn in ((args.threads_scaling, lambda: threads_scaling(args)), (args.memory, lambda: memory(args)),

@@ -7,12 +7,16 @@ imports without pyvista or vtk; the PyVista accessor ``grid.ambient`` is registe
 
 __version__ = "0.4.0"
 
-from .inputs.camera import Camera, orbit
-from .inputs.lights import DirectionalLight, PointLight
-from .rendering.renderer import Renderer, render
-from .rendering.result import RenderResult
-from .inputs.transfer import TransferFunction
-from .series import render_series
+from ._kernels.cpu_features import apply_load_policy
+
+apply_load_policy()  # before Numba is imported: it reads the CPU's features once (docs/performance.rst)
+
+from .inputs.camera import Camera, orbit  # noqa: E402
+from .inputs.lights import DirectionalLight, PointLight  # noqa: E402
+from .rendering.renderer import Renderer, render  # noqa: E402
+from .rendering.result import RenderResult  # noqa: E402
+from .inputs.transfer import TransferFunction  # noqa: E402
+from .series import render_series  # noqa: E402
 
 __all__ = ["Camera", "DirectionalLight", "PointLight", "Renderer", "RenderResult", "TransferFunction", "orbit", "render",
            "render_series"]

@@ -400,7 +400,7 @@ def run_raycast(args, rad, alpha, *, backend, asked, device_cache=None, progress
             backend = "cpu"
         else:
             return "cuda"
-    from ._kernels.raycast import raycast_image
+    from ._kernels.packet import raycast_image
 
     parts = tiles(rad.shape[0], 16 if progress_bar else 4)
     bar = None

@@ -5,6 +5,8 @@ import os
 import numpy as np
 import pytest
 
+import pv_ambient  # noqa: F401  (first: it sets Numba's CPU features before Numba is imported, as for a user)
+
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 os.environ.setdefault("MPLBACKEND", "Agg")

@@ -38,19 +38,22 @@ _INLINE = set()  # py_funcs of the scalar functions inlined into their callers
 _CUDA = {}  # py_func -> CUDA device function (built on first use)
 
 
-def scalar(fn=None, *, inline=False):
+def scalar(fn=None, *, inline=False, force_inline=False):
     """Compile a scalar (per-ray / per-voxel / per-path) function for the CPU target.
 
     ``inline=True`` inlines it into its callers at Numba's IR level (``inline="always"``): for the
     small functions of the per-sample path (interpolation, classification, the baked lookup). Why:
     LLVM does not always inline across dispatchers, and the calls left cost a sizeable part of an
-    emission–absorption frame. The returned dispatcher is also registered for :func:`cuda_device`."""
+    emission–absorption frame. ``force_inline=True`` has LLVM inline it instead (``forceinline``):
+    for a function returning a tuple into a vectorised lane loop, where Numba's IR inlining would
+    leave tuple copies that cost the loop its ``noalias`` (:mod:`.packet`). The returned dispatcher
+    is also registered for :func:`cuda_device`; either kind is force-inlined there."""
 
     def wrap(f):
-        opts = dict(_COMMON, inline="always") if inline else _COMMON
+        opts = dict(_COMMON, inline="always") if inline else dict(_COMMON, forceinline=True) if force_inline else _COMMON
         disp = numba.njit(**opts)(f)
         _SCALARS[f] = disp
-        if inline:
+        if inline or force_inline:
             _INLINE.add(f)
         return disp
 

@@ -8,11 +8,22 @@ from ``field`` and albedo/emission from ``aux`` (physical arrays, or a baked TF)
 
 from __future__ import annotations
 
+import numpy as np
+
 from ._jit import driver, prange, scalar
 from .interp import trilinear, trilinear_c
 
 MODE_LUT = 0
 MODE_GRID = 1
+
+#: A segment at least this fraction of the step long is a full step (the ray cast's segments are
+#: ``step`` long but for the first, with jitter, and the last): the step-corrected table's opacity
+#: applies to it. Why not equality: a segment ``[t, t + step]`` measures ``step`` only to the
+#: rounding of ``t``.
+FULL_STEP = 1.0 - 1e-9
+
+#: Columns of :func:`step_table`: the opacity of one full step, then the colour (rgb).
+STEP_COLUMNS = 4
 
 
 @scalar(inline=True)
@@ -30,6 +41,78 @@ def lut_coords(s, lut_lo, lut_inv, n):
 @scalar(inline=True)
 def lut_value(table, k0, k1, f, col):
     return table[k0, col] + f * (table[k1, col] - table[k0, col])
+
+
+def step_table(table, step):
+    """The step-corrected table of a LUT-mode medium (VTK's opacity correction for the sample
+    distance): per entry of ``table`` (columns as :mod:`pv_ambient.inputs.transfer`) the opacity
+    ``1 − e^{−σt·step}`` of one full step of world length ``step`` and the colour, float32
+    ``(n, 4)``. :func:`step_sample` interpolates it between entries, so a full segment of the ray
+    cast costs no ``exp``; the difference from ``1 − e^{−σ̂·step}`` of the interpolated σ̂ is second
+    order in one entry's change of σt·step (docs/performance.rst, "CPU camera pass")."""
+    out = np.zeros((table.shape[0], STEP_COLUMNS), np.float32)
+    out[:, 0] = -np.expm1(-np.asarray(table[:, 0], np.float64) * float(step))
+    out[:, 1:4] = table[:, 7:10]
+    return out
+
+
+@scalar
+def full_segment(t, te, step):
+    """1.0 when segment ``[t, te]`` is a full step (:data:`FULL_STEP`), else 0.0 (a float: the
+    packet driver's lane loop keeps no boolean copies, which would cost it Numba's ``noalias``)."""
+    return 1.0 if te - t >= FULL_STEP * step else 0.0
+
+
+@scalar(inline=True)
+def clamp32(x, hi):
+    """``x`` clamped to [0, hi] as a select (float32; the lane loops vectorise only branch-free code)."""
+    x = x if x > np.float32(0.0) else np.float32(0.0)
+    return x if x < hi else hi
+
+
+@scalar(inline=True)
+def min_index(a, b):
+    """The smaller of two unsigned indices (a select)."""
+    return a if a < b else b
+
+
+@scalar(force_inline=True)
+def step_sample(field, stab, lut_lo, lut_inv, x, y, z):
+    """(opacity of one full step, colour rgb) at index-space point (x, y, z) of a LUT-mode medium:
+    the scalar trilinear at the point, looked up in ``stab`` (:func:`step_table`) — one sample of
+    emission–absorption on a full segment, float32. Positions outside [0, n−1] are clamped as by
+    :func:`.interp.cell_coords`; indices are unsigned (no negative-index wraparound) so the CPU's
+    packet driver (:mod:`.packet`) vectorises it and a CUDA thread keeps its address arithmetic
+    small. A grid axis of one sample reads that sample twice."""
+    nx, ny, nz = field.shape
+    nt = stab.shape[0]
+    x = clamp32(np.float32(x), np.float32(nx - 1))
+    y = clamp32(np.float32(y), np.float32(ny - 1))
+    z = clamp32(np.float32(z), np.float32(nz - 1))
+    # lower corner at most n − 2, so x − i0 is in [0, 1] (1 at the last sample); n − 2 of a
+    # one-sample axis wraps to the largest uint64, and the upper corner is clamped to n − 1
+    i0 = min_index(np.uint64(np.uint32(x)), np.uint64(nx - 2))
+    j0 = min_index(np.uint64(np.uint32(y)), np.uint64(ny - 2))
+    k0 = min_index(np.uint64(np.uint32(z)), np.uint64(nz - 2))
+    i1 = min_index(i0 + np.uint64(1), np.uint64(nx - 1))
+    j1 = min_index(j0 + np.uint64(1), np.uint64(ny - 1))
+    k1 = min_index(k0 + np.uint64(1), np.uint64(nz - 1))
+    fx = x - np.float32(i0)
+    fy = y - np.float32(j0)
+    fz = z - np.float32(k0)
+    c00 = field[i0, j0, k0] + fx * (field[i1, j0, k0] - field[i0, j0, k0])
+    c10 = field[i0, j1, k0] + fx * (field[i1, j1, k0] - field[i0, j1, k0])
+    c01 = field[i0, j0, k1] + fx * (field[i1, j0, k1] - field[i0, j0, k1])
+    c11 = field[i0, j1, k1] + fx * (field[i1, j1, k1] - field[i0, j1, k1])
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    s = c0 + fz * (c1 - c0)
+    u = clamp32((s - np.float32(lut_lo)) * np.float32(lut_inv), np.float32(nt - 1))
+    q0 = min_index(np.uint64(np.uint32(u)), np.uint64(nt - 2))
+    q1 = q0 + np.uint64(1)
+    f = u - np.float32(q0)
+    return (stab[q0, 0] + f * (stab[q1, 0] - stab[q0, 0]), stab[q0, 1] + f * (stab[q1, 1] - stab[q0, 1]),
+            stab[q0, 2] + f * (stab[q1, 2] - stab[q0, 2]), stab[q0, 3] + f * (stab[q1, 3] - stab[q0, 3]))
 
 
 @scalar(inline=True)

@@ -25,7 +25,7 @@ from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
-from .medium import MODE_GRID, MODE_LUT, lut_coords, lut_value
+from .medium import MODE_GRID, MODE_LUT, full_segment, lut_coords, lut_value, step_sample
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
                      SINGLE_SCATTERING)
 from .phase import phase_eval
@@ -437,6 +437,20 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                     tnext = te + step
                     continue
                 t_block = tex
+            if model == EMISSION_ABSORPTION and mode == MODE_LUT and full_segment(t, te, step) != 0.0:
+                # a full step: the step-corrected table's opacity, no exp (as the packet driver)
+                a, cr, cg, cb = step_sample(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
+                if a > 0.0:
+                    w = T * a
+                    r += w * cr
+                    gg += w * cg
+                    b += w * cb
+                    T -= w
+                    if T < ert:
+                        break
+                t = te
+                tnext = te + step
+                continue
             sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, medium, x, y, z)
             if sig > 0.0:
                 sr = cr
@@ -571,6 +585,7 @@ RAYCAST_DRIVERS = {model: raycast_driver(model) for model in RAYCAST_MODELS}
 
 
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
-    """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: the driver of its model, the
-    scene in the records of :mod:`.records`."""
+    """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU, one ray at a time: the driver
+    of its model, the scene in the records of :mod:`.records`. :func:`.packet.raycast_image` runs the
+    packet driver instead where it applies."""
     RAYCAST_DRIVERS[model](view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha)

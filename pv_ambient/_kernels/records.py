@@ -24,8 +24,10 @@ import numpy as np
 View = namedtuple("View", "cam w2i lo hi")
 
 #: Ray marching: world step, jitter on/off and its seed, early-termination threshold, background
-#: (rgb) and ``t_end``, each ray's end (H, W) or one for all (1, 1).
-March = namedtuple("March", "step jitter seed ert bg t_end")
+#: (rgb), ``t_end``, each ray's end (H, W) or one for all (1, 1), and ``opacity``, the medium's
+#: step-corrected table for this step (:func:`.medium.step_table`; :data:`NONE_STEP` for a
+#: GRID-mode medium).
+March = namedtuple("March", "step jitter seed ert bg t_end opacity")
 
 #: The medium (:mod:`.medium`): classification mode, scalar or σt field, table and its scalar
 #: mapping, the GRID mode's albedo/emission/colour ``aux``, and the majorant grid with its block
@@ -61,6 +63,7 @@ NONE4 = np.zeros((1, 1, 1, 1), np.float32)
 NONE3 = np.zeros((1, 1, 1), np.float32)
 NONE1 = np.zeros(1, np.float64)
 NONE12 = np.zeros((1, 1, 1, 12), np.float32)
+NONE_STEP = np.zeros((2, 4), np.float32)
 
 
 def view_of(camera, size, geometry):

@@ -118,6 +118,13 @@ class SceneStages:
 
         return self.cache.get(("majorant", block), lambda: majorant_grid(self.optics, block))
 
+    def step_opacity(self, step):
+        """The medium's step-corrected table for world step ``step`` (:func:`pv_ambient.stages.medium.step_opacity`),
+        cached per step: a camera move reuses it, and the GPU's copy with it."""
+        from ..stages.medium import step_opacity
+
+        return self.cache.get(("step_opacity", float(step)), lambda: step_opacity(self.optics, step))
+
     def ball_grid(self, radius):
         """σ̄ and the ball's mean albedo per channel at every data sample, float32 (nx, ny, nz, 4)
         (:func:`pv_ambient.stages.ball.ball_grid`; cached per radius)."""

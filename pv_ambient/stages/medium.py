@@ -17,6 +17,18 @@ def majorant_grid(optics, block) -> np.ndarray:
     return maj
 
 
+def step_opacity(optics, step) -> np.ndarray:
+    """The ray cast's step-corrected table of ``optics`` for world step ``step``
+    (:func:`pv_ambient._kernels.medium.step_table`); the placeholder for a GRID-mode medium, which
+    classifies per voxel and takes ``exp`` per sample."""
+    from .._kernels.medium import MODE_LUT, step_table
+    from .._kernels.records import NONE_STEP
+
+    if optics.mode != MODE_LUT:
+        return NONE_STEP
+    return step_table(optics.table, step)
+
+
 def scattering_nodes(optics, grid) -> np.ndarray:
     """The nodes of light grid ``grid`` nearest to a data sample that scatters (σt·albedo > 0):
     a boolean array of the grid's shape."""

@@ -1,0 +1,299 @@
+"""The CPU camera pass in ray packets: :data:`LANES` rays of a 4 × 4 pixel block marched in lockstep,
+so that one sample of every ray is computed by SIMD instructions (docs/performance.rst, "CPU camera
+pass").
+
+The march is the one of :func:`.raycast.march_pixel` — the same segments, block skipping, early
+termination and jitter — split in three passes per step of the packet:
+
+1. :func:`lanes_step` (vectorised): every lane whose next segment is a full step inside its current
+   non-empty majorant block moves to it — the common case;
+2. :func:`lanes_fix` (scalar): the other lanes do what :func:`.raycast.march_pixel` does at a block
+   boundary, on a partial segment (the jittered first, the last: ``exp`` of the interpolated σt)
+   and at the end of the ray, until each has a full segment to sample or is done;
+3. :func:`lanes_sample_ea` (vectorised): every active lane samples its segment with the scalar
+   function the per-pixel march uses, :func:`.medium.step_sample`, and composites.
+
+Lane state is a flat structure of arrays per thread (float32 positions for the sample, float64
+ray state and sums: float64 where sums accumulate), indexed with unsigned integers. Why these
+rules: LLVM vectorises a lane loop only when its addresses are affine in the lane (Numba's
+negative-index wraparound of a signed index is not), when its body is branch-free (selects) and
+when Numba marks the arrays ``noalias`` — which it does for a ``prange`` body with no aliasing
+assignments, so the vectorised passes are inlined into the driver and create no array views,
+tuples or booleans there. ``tests/kernels/test_packet.py`` compiles the driver outside the disk
+cache and checks that vector FMAs are in its assembly.
+
+Which models and media: emission–absorption of a LUT-mode (table) transfer function; every other
+case runs the scalar driver (:func:`.raycast.raycast_driver`), as does everything when
+``PV_AMBIENT_PACKETS=0`` (the scalar fallback). :func:`raycast_image` is the CPU camera pass's
+entry (:mod:`pv_ambient.backend`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numba
+import numpy as np
+
+from ._jit import driver, prange, scalar
+from .geometry import camera_ray, ray_box
+from .majorant import block_at, block_span
+from .medium import FULL_STEP, MODE_LUT, full_segment, step_sample
+from .models import EMISSION_ABSORPTION
+from .raycast import STREAM_JITTER, TILE, index_ray, medium_sigma_color, row_stride
+from .raycast import raycast_image as raycast_image_scalar
+from .rng import uniform
+
+#: Rays per packet, a 4 × 4 pixel block: one AVX-512 register of float32 lanes.
+LANES = 16
+#: The packet's side in pixels.
+SIDE = 4
+
+# float32 lane fields (the sample's position and whether the lane samples this step)
+X, Y, Z, ACT = 0, 1, 2, 3
+N32 = 4
+# float64 lane fields: ray origin and direction in index space, segment start, next boundary,
+# ray end, exit of the current non-empty block, done, transmittance, radiance rgb
+PX, PY, PZ, QX, QY, QZ, TS, TN, T1, TB, DONE, TR, RR, RG, RB = range(15)
+N64 = 15
+
+
+@scalar
+def packet_begin(view, march, i0, j0, row1, W, H, l32, b32, l64, b64):
+    """Set up the lanes of the packet whose top-left pixel is (i0, j0): each ray clipped to the box
+    and to its end, its first boundary jittered as :func:`.raycast.march_pixel` does; lanes outside
+    the image or the rows [.., row1) are done."""
+    cam, w2i, lo, hi = view.cam, view.w2i, view.lo, view.hi
+    step, jitter, seed, t_end = march.step, march.jitter, march.seed, march.t_end
+    per_pixel = t_end.shape[0] == H and t_end.shape[1] == W
+    for k in range(LANES):
+        i = i0 + k % SIDE
+        j = j0 + k // SIDE
+        l32[b32 + ACT * LANES + k] = 0.0
+        l64[b64 + DONE * LANES + k] = 1.0
+        l64[b64 + TR * LANES + k] = 1.0
+        l64[b64 + RR * LANES + k] = 0.0
+        l64[b64 + RG * LANES + k] = 0.0
+        l64[b64 + RB * LANES + k] = 0.0
+        if i >= W or j >= row1:
+            continue
+        ox, oy, oz, dx, dy, dz = camera_ray(cam, i, j, W, H)
+        px, py, pz, qx, qy, qz = index_ray(w2i, ox, oy, oz, dx, dy, dz)
+        t0, t1 = ray_box(px, py, pz, qx, qy, qz, lo, hi)
+        t0 = max(t0, 0.0)
+        t1 = min(t1, t_end[j, i] if per_pixel else t_end[0, 0])
+        l64[b64 + PX * LANES + k] = px
+        l64[b64 + PY * LANES + k] = py
+        l64[b64 + PZ * LANES + k] = pz
+        l64[b64 + QX * LANES + k] = qx
+        l64[b64 + QY * LANES + k] = qy
+        l64[b64 + QZ * LANES + k] = qz
+        if t0 < t1:
+            offset = uniform(seed, STREAM_JITTER, j * W + i, 0) if jitter else 0.0
+            l64[b64 + TS * LANES + k] = t0
+            l64[b64 + TN * LANES + k] = t0 + (1.0 - offset) * step
+            l64[b64 + T1 * LANES + k] = t1
+            l64[b64 + TB * LANES + k] = -1.0
+            l64[b64 + DONE * LANES + k] = 0.0
+
+
+@scalar(inline=True)
+def lanes_step(l32, b32, l64, b64, step, ert):
+    """Pass 1 (vectorised): each lane whose next segment ``[t, tnext]`` is a full step that ends
+    before the ray does, whose midpoint lies in the current non-empty block and whose transmittance
+    is still above ``ert`` takes it: its sample position is written and ``t`` moves on. Other lanes
+    are left to :func:`lanes_fix`."""
+    for k in range(LANES):
+        t = l64[np.uint64(b64 + TS * LANES + k)]
+        tn = l64[np.uint64(b64 + TN * LANES + k)]
+        tm = 0.5 * (t + tn)
+        ok = ((l64[np.uint64(b64 + DONE * LANES + k)] == 0.0) & (tm < l64[np.uint64(b64 + TB * LANES + k)])
+              & (tn <= l64[np.uint64(b64 + T1 * LANES + k)]) & (tn - t >= FULL_STEP * step)
+              & (l64[np.uint64(b64 + TR * LANES + k)] >= ert))
+        l32[np.uint64(b32 + X * LANES + k)] = np.float32(l64[np.uint64(b64 + PX * LANES + k)]
+                                                         + tm * l64[np.uint64(b64 + QX * LANES + k)])
+        l32[np.uint64(b32 + Y * LANES + k)] = np.float32(l64[np.uint64(b64 + PY * LANES + k)]
+                                                         + tm * l64[np.uint64(b64 + QY * LANES + k)])
+        l32[np.uint64(b32 + Z * LANES + k)] = np.float32(l64[np.uint64(b64 + PZ * LANES + k)]
+                                                         + tm * l64[np.uint64(b64 + QZ * LANES + k)])
+        l32[np.uint64(b32 + ACT * LANES + k)] = np.float32(1.0) if ok else np.float32(0.0)
+        l64[np.uint64(b64 + TS * LANES + k)] = tn if ok else t
+        l64[np.uint64(b64 + TN * LANES + k)] = tn + step if ok else tn
+
+
+@scalar
+def lanes_fix(march, medium, l32, b32, l64, b64):
+    """Pass 2 (scalar): every lane :func:`lanes_step` left marches as :func:`.raycast.march_pixel`
+    does — block lookups and skips, partial segments sampled with ``exp`` of the interpolated σt,
+    early termination — until it has a full segment to sample (its position written, active) or
+    is done. Returns the number of active lanes."""
+    step, ert = march.step, march.ert
+    maj, block = medium.maj, medium.block
+    active = 0
+    for k in range(LANES):
+        if l32[b32 + ACT * LANES + k] != 0.0:
+            active += 1
+            continue
+        if l64[b64 + DONE * LANES + k] != 0.0:
+            continue
+        T = l64[b64 + TR * LANES + k]
+        if T < ert:
+            l64[b64 + DONE * LANES + k] = 1.0
+            continue
+        t = l64[b64 + TS * LANES + k]
+        tnext = l64[b64 + TN * LANES + k]
+        t1 = l64[b64 + T1 * LANES + k]
+        t_block = l64[b64 + TB * LANES + k]
+        px = l64[b64 + PX * LANES + k]
+        py = l64[b64 + PY * LANES + k]
+        pz = l64[b64 + PZ * LANES + k]
+        qx = l64[b64 + QX * LANES + k]
+        qy = l64[b64 + QY * LANES + k]
+        qz = l64[b64 + QZ * LANES + k]
+        found = 0
+        while t < t1:
+            te = min(tnext, t1)
+            tm = 0.5 * (t + te)
+            x = px + tm * qx
+            y = py + tm * qy
+            z = pz + tm * qz
+            if tm >= t_block:
+                ba, bb, bc = block_at(x, y, z, maj, block)
+                _, _, _, tex = block_span(px, py, pz, qx, qy, qz, ba, bb, bc, maj, block, tm, t1)
+                if maj[ba, bb, bc] <= 0.0:
+                    if tex > te:
+                        t = tex  # skip the empty block; realign the segment grid after it
+                        tnext = t + step
+                        continue
+                    t = te
+                    tnext = te + step
+                    continue
+                t_block = tex
+            if full_segment(t, te, step) != 0.0:
+                l32[b32 + X * LANES + k] = x
+                l32[b32 + Y * LANES + k] = y
+                l32[b32 + Z * LANES + k] = z
+                l32[b32 + ACT * LANES + k] = 1.0
+                t = te
+                tnext = te + step
+                found = 1
+                break
+            sig, cr, cg, cb, _, _, _ = medium_sigma_color(MODE_LUT, medium, x, y, z)
+            if sig > 0.0:
+                e = math.exp(-sig * (te - t))
+                w = T * (1.0 - e)
+                l64[b64 + RR * LANES + k] += w * cr
+                l64[b64 + RG * LANES + k] += w * cg
+                l64[b64 + RB * LANES + k] += w * cb
+                T *= e
+                if T < ert:
+                    t = t1
+                    break
+            t = te
+            tnext = te + step
+        l64[b64 + TR * LANES + k] = T
+        l64[b64 + TS * LANES + k] = t
+        l64[b64 + TN * LANES + k] = tnext
+        l64[b64 + TB * LANES + k] = t_block
+        if found:
+            active += 1
+        else:
+            l64[b64 + DONE * LANES + k] = 1.0
+    return active
+
+
+@scalar(inline=True)
+def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv):
+    """Pass 3 (vectorised): every lane samples its full segment with :func:`.medium.step_sample`
+    and composites (an inactive lane adds nothing)."""
+    for k in range(LANES):
+        a, cr, cg, cb = step_sample(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
+                                    l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
+        T = l64[np.uint64(b64 + TR * LANES + k)]
+        w = T * (a * l32[np.uint64(b32 + ACT * LANES + k)])
+        l64[np.uint64(b64 + RR * LANES + k)] += w * cr
+        l64[np.uint64(b64 + RG * LANES + k)] += w * cg
+        l64[np.uint64(b64 + RB * LANES + k)] += w * cb
+        l64[np.uint64(b64 + TR * LANES + k)] = T - w
+
+
+@scalar
+def packet_end(march, i0, j0, row1, l64, b64, out_rad, out_alpha):
+    """Write the packet's pixels: radiance plus the background seen through, and alpha."""
+    W = out_alpha.shape[1]
+    bg = march.bg
+    for k in range(LANES):
+        i = i0 + k % SIDE
+        j = j0 + k // SIDE
+        if i >= W or j >= row1:
+            continue
+        T = l64[b64 + TR * LANES + k]
+        out_rad[j, i, 0] = l64[b64 + RR * LANES + k] + T * bg[0]
+        out_rad[j, i, 1] = l64[b64 + RG * LANES + k] + T * bg[1]
+        out_rad[j, i, 2] = l64[b64 + RB * LANES + k] + T * bg[2]
+        out_alpha[j, i] = 1.0 - T
+
+
+@driver
+def packet_rows_ea(view, march, medium, row0, row1, out_rad, out_alpha, l32, l64):
+    """Rows [row0, row1) of an emission–absorption image of a LUT-mode medium in packets: the
+    pixels in :data:`.raycast.TILE`² tiles in golden-ratio stride order (as the scalar driver), each
+    tile in 4 × 4 packets; ``l32``/``l64`` hold :data:`N32`/:data:`N64` lane fields per thread."""
+    H, W = out_alpha.shape
+    step, ert = march.step, march.ert
+    field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
+    n_rows = (row1 - row0 + TILE - 1) // TILE
+    n_cols = (W + TILE - 1) // TILE
+    n = n_rows * n_cols
+    stride = row_stride(n)
+    for q in prange(n):
+        tq = (q * stride) % n
+        a = tq // n_cols
+        b = tq - a * n_cols
+        b32 = numba.get_thread_id() * (N32 * LANES)
+        b64 = numba.get_thread_id() * (N64 * LANES)
+        j_end = min(row0 + (a + 1) * TILE, row1)
+        for j0 in range(row0 + a * TILE, j_end, SIDE):
+            for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
+                packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
+                while True:
+                    lanes_step(l32, b32, l64, b64, step, ert)
+                    if lanes_fix(march, medium, l32, b32, l64, b64) == 0:
+                        break
+                    lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv)
+                packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
+
+
+def enabled() -> bool:
+    """Whether the packet driver runs where it applies (``PV_AMBIENT_PACKETS=0``: the scalar
+    driver everywhere, the fallback)."""
+    return os.environ.get("PV_AMBIENT_PACKETS", "1") != "0"
+
+
+def applies(model, medium) -> bool:
+    """Whether ray-cast ``model`` on ``medium`` (a :class:`.records.Medium`) runs in packets."""
+    return enabled() and model == EMISSION_ABSORPTION and int(medium.mode) == MODE_LUT
+
+
+def scratch():
+    """The lane fields of every thread of Numba's pool: (float32, float64) flat arrays."""
+    n = numba.config.NUMBA_NUM_THREADS
+    return np.zeros(n * N32 * LANES, np.float32), np.zeros(n * N64 * LANES, np.float64)
+
+
+def raycast_packets(model, view, march, medium, row0, row1, out_rad, out_alpha):
+    """Rows [row0, row1) of ray-cast ``model``'s image in packets (:func:`applies` must hold)."""
+    l32, l64 = scratch()
+    packet_rows_ea(view, march, medium, row0, row1, out_rad, out_alpha, l32, l64)
+
+
+def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
+    """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: in packets where they apply
+    (:func:`applies`), else one ray at a time (:func:`.raycast.raycast_image`); the scene in the
+    records of :mod:`.records`."""
+    if applies(model, medium):
+        raycast_packets(model, view, march, medium, row0, row1, out_rad, out_alpha)
+    else:
+        raycast_image_scalar(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad,
+                             out_alpha)

@@ -1,0 +1,185 @@
+"""The CPU camera pass in ray packets (pv_ambient._kernels.packet): the same image as the per-pixel
+march (the scalar fallback) on every path through the march, the step-corrected table against the
+analytic transmittance, SIMD in the compiled driver, and the load policy."""
+
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_ambient as pa
+from pv_ambient._kernels import cpu_features, packet
+from pv_ambient._kernels.medium import step_sample, step_table
+from pv_ambient.inputs.camera import Camera
+
+#: Packet vs per-pixel march: the same float32 sample and float64 sums; only the rounding of a
+#: sample position (a fused multiply-add in one, not the other) differs, a few float32 ulps.
+PACKET_TOL = 1e-6
+
+
+def blob(dims=(21, 18, 15)):
+    """A smooth scalar blob on a non-cubic grid (an odd number of samples per axis)."""
+    g = pv.ImageData(dimensions=dims, spacing=(0.1, 0.11, 0.13), origin=(-1.0, -0.9, -0.85))
+    p = g.points
+    g["d"] = np.exp(-2.0 * (p[:, 0] ** 2 + 1.5 * p[:, 1] ** 2 + 2.0 * (p[:, 2] - 0.1) ** 2)).astype(np.float32)
+    return g
+
+
+CAM = Camera((0.4, -3.5, 0.8), (0.0, 0.05, 0.0), (0, 0, 1), view_angle=38)
+
+
+def both(r, monkeypatch, **kw):
+    """(packet image, per-pixel image) of ``r``'s emission–absorption frame, and how many rows the
+    packet driver rendered."""
+    calls = []
+    real = packet.raycast_packets
+
+    def counting(*a):
+        calls.append(a[5] - a[4])
+        return real(*a)
+
+    monkeypatch.setattr(packet, "raycast_packets", counting)
+    kw.setdefault("window_size", (37, 23))  # partial packets and tiles at the right and bottom
+    out = []
+    for flag in ("1", "0"):
+        monkeypatch.setenv("PV_AMBIENT_PACKETS", flag)
+        res = r.render(camera=CAM, model="emission_absorption", progress_bar=False, **kw)
+        out.append((np.asarray(res.radiance, np.float64), np.asarray(res.alpha, np.float64)))
+    return out[0], out[1], sum(calls)
+
+
+@pytest.mark.parametrize("case", ["plain", "jitter", "empty_blocks", "early_termination", "rows", "opaque_depth"])
+def test_packets_equal_the_per_pixel_march(case, monkeypatch):
+    tf = dict(cmap="viridis", clim=(0.0, 1.0), opacity="linear", opacity_unit_distance=0.3)
+    kw = {}
+    if case == "jitter":
+        kw = dict(jitter=True, seed=7)
+    elif case == "empty_blocks":
+        tf["clim"] = (0.5, 1.0)  # most majorant blocks of the blob's tails are empty: skips and realigned grids
+    elif case == "early_termination":
+        tf["opacity_unit_distance"] = 0.003  # rays stop inside the blob
+    r = pa.Renderer(blob(), transfer_function=pa.TransferFunction(**tf))
+    if case == "rows":  # an image rendered in row bands (progress bars): bands not multiples of a packet
+        kw = dict(window_size=(29, 41))
+        from pv_ambient import backend
+
+        real = backend.run_raycast
+
+        def banded(args, rad, alpha, **k):
+            from pv_ambient._kernels.packet import raycast_image
+
+            for r0, r1 in ((0, 3), (3, 17), (17, 41)):
+                raycast_image(*args, r0, r1, rad, alpha)
+            return "cpu"
+
+        monkeypatch.setattr(backend, "run_raycast", banded)
+    if case == "opaque_depth":  # rays ending at opaque geometry: a per-pixel ray end
+        end = np.full((23, 37), np.inf)
+        end[5:15, 10:30] = np.linspace(2.8, 4.0, 200).reshape(10, 20)
+        kw = dict(ray_end=end)
+    (pa_rad, pa_alpha), (px_rad, px_alpha), rows = both(r, monkeypatch, **kw)
+    assert rows > 0  # the packet driver ran
+    assert px_alpha.max() > 0.2
+    if case == "early_termination":
+        assert px_alpha.max() > 1 - 1e-4
+    assert np.abs(pa_rad - px_rad).max() <= PACKET_TOL
+    assert np.abs(pa_alpha - px_alpha).max() <= PACKET_TOL
+
+
+def test_tiny_grids(monkeypatch):
+    """Axes of two samples render as the per-pixel march does; an axis of one sample (the kernels'
+    placeholders) reads that sample twice, never past the array."""
+    for dims in ((2, 2, 7), (2, 3, 2)):
+        g = pv.ImageData(dimensions=dims, spacing=(0.3, 0.3, 0.3), origin=(-0.3, -0.3, -0.3))
+        g["d"] = np.linspace(0.2, 1.0, g.n_points).astype(np.float32)
+        r = pa.Renderer(g, transfer_function=pa.TransferFunction(clim=(0, 1), opacity_unit_distance=0.05))
+        (a, aa), (b, ba), _ = both(r, monkeypatch, window_size=(9, 7))
+        assert np.isfinite(a).all() and np.abs(a - b).max() <= PACKET_TOL and np.abs(aa - ba).max() <= PACKET_TOL
+    field = np.array([[[0.25, 0.5], [0.75, 1.0], [0.0, 0.5]]], np.float32)  # (1, 3, 2)
+    stab = np.zeros((5, 4), np.float32)
+    stab[:, 0] = np.linspace(0.0, 1.0, 5)
+    stab[:, 1] = 2.0
+    for x, y, z, want in ((0.0, 0.5, 0.5, 0.625), (3.0, 1.0, 1.0, 1.0), (-1.0, 2.0, 0.0, 0.0), (0.0, 1.5, 0.25, 0.46875)):
+        a, cr, _, _ = step_sample(field, stab, 0.0, 4.0, x, y, z)  # lut: s·4 entries, opacity = s
+        assert a == pytest.approx(want, abs=1e-6) and cr == 2.0
+
+
+def test_step_corrected_table_is_exact_for_a_constant_medium():
+    """σt constant along a ray: every full step's table opacity is 1 − e^{−σ·step} and the last,
+    partial, segment takes exp: alpha is 1 − e^{−σL} (L the chord), to float32 rounding."""
+    g = pv.ImageData(dimensions=(12, 12, 12), spacing=(0.2,) * 3, origin=(-1.1,) * 3)
+    g["d"] = np.full(g.n_points, 0.6, np.float32)
+    tf = pa.TransferFunction(clim=(0, 1), opacity="linear", opacity_unit_distance=1.0)
+    r = pa.Renderer(g, transfer_function=tf)
+    cam = Camera((0.0, -5.0, 0.0), (0.0, 0.0, 0.0), (0, 0, 1), parallel_projection=True, parallel_scale=0.5)
+    res = r.render(camera=cam, window_size=(8, 8), model="emission_absorption", step=0.0123, progress_bar=False)
+    sigma = float(r.optics.table[:, 0][int(round((0.6 - r.optics.lut_lo) * r.optics.lut_inv))])
+    L = 2.2  # the box's chord along y
+    assert np.abs(np.asarray(res.alpha, np.float64) - (1.0 - np.exp(-sigma * L))).max() <= 2e-6
+
+
+def test_step_table_columns():
+    table = np.zeros((4, 10), np.float32)
+    table[:, 0] = [0.0, 1.0, 10.0, 1e4]
+    table[:, 7:10] = np.arange(12).reshape(4, 3)
+    t = step_table(table, 0.05)
+    assert t.dtype == np.float32 and t.shape == (4, 4)
+    assert np.allclose(t[:, 0], 1.0 - np.exp(-table[:, 0].astype(np.float64) * 0.05), rtol=1e-6)
+    assert t[0, 0] == 0.0 and t[3, 0] == 1.0  # no underflow or NaN at extreme extinction
+    assert np.array_equal(t[:, 1:], table[:, 7:10])
+
+
+_ASM_SCRIPT = r"""
+import sys
+import numpy as np
+import pyvista as pv
+import pv_ambient as pa
+from pv_ambient._kernels import packet
+from pv_ambient._kernels.cpu_features import load_policy
+g = pv.ImageData(dimensions=(6, 6, 6), spacing=(0.2,) * 3, origin=(-0.5,) * 3)
+g["d"] = np.linspace(0, 1, g.n_points).astype(np.float32)
+r = pa.Renderer(g, transfer_function=pa.TransferFunction(clim=(0, 1)))
+r.render(camera=pa.Camera((0, -3, 0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), progress_bar=False)
+sig = packet.packet_rows_ea.signatures[0]
+asm = packet.packet_rows_ea.inspect_asm(sig)
+print("POLICY", load_policy()["loads"])
+print("PACKED_FMA", len(re.findall(r"vfmadd\w*ps\s+%[yz]mm", asm)))
+print("GATHERS", len(re.findall(r"vgather\w+", asm)))
+"""
+
+
+def test_packet_driver_is_vectorised(tmp_path):
+    """Compiled outside the disk cache, the packet driver's assembly holds packed float32 FMAs (the
+    lane loops vectorised); with the lane-by-lane load policy, no hardware gathers."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PV_AMBIENT_PACKETS="1")
+    env.pop("NUMBA_CPU_FEATURES", None)
+    proc = subprocess.run([sys.executable, "-c", "import re\n" + _ASM_SCRIPT], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    found = dict(line.split(" ", 1) for line in proc.stdout.splitlines() if line.split(" ")[0] in
+                 ("POLICY", "PACKED_FMA", "GATHERS"))
+    assert int(found["PACKED_FMA"]) >= 4
+    if found["POLICY"] == "lane by lane":
+        assert int(found["GATHERS"]) == 0
+
+
+def test_load_policy(monkeypatch):
+    """The policy is chosen once, before Numba is imported; a user's NUMBA_CPU_FEATURES wins."""
+    pol = cpu_features.load_policy()
+    assert pol["loads"] in ("lane by lane", "Numba's choice") and pol["why"]
+    if pol["loads"] == "lane by lane" and "set by the user" not in pol["why"]:
+        assert os.environ["NUMBA_CPU_FEATURES"].endswith("+prefer-no-gather")
+    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "why": ""})
+    monkeypatch.setenv("NUMBA_CPU_FEATURES", "+avx2,+fma")
+    assert cpu_features.apply_load_policy() == {"loads": "Numba's choice",
+                                                "why": "NUMBA_CPU_FEATURES/NUMBA_CPU_NAME set by the user"}
+    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "why": ""})
+    monkeypatch.delenv("NUMBA_CPU_FEATURES")
+    monkeypatch.delenv("NUMBA_CPU_NAME", raising=False)
+    monkeypatch.delenv("PV_AMBIENT_GATHERS", raising=False)
+    assert cpu_features.apply_load_policy()["why"] == "numba was imported before pv_ambient"
+    assert "NUMBA_CPU_FEATURES" not in os.environ
