@@ -22,8 +22,9 @@ MODE_GRID = 1
 #: rounding of ``t``.
 FULL_STEP = 1.0 - 1e-9
 
-#: Columns of :func:`step_table`: the opacity of one full step, then the colour (rgb).
-STEP_COLUMNS = 4
+#: Columns of :func:`step_table`: the opacity of one full step, the colour (rgb), the albedo (rgb)
+#: and the emission (rgb).
+STEP_COLUMNS = 10
 
 
 @scalar(inline=True)
@@ -46,13 +47,14 @@ def lut_value(table, k0, k1, f, col):
 def step_table(table, step):
     """The step-corrected table of a LUT-mode medium (VTK's opacity correction for the sample
     distance): per entry of ``table`` (columns as :mod:`pv_ambient.inputs.transfer`) the opacity
-    ``1 − e^{−σt·step}`` of one full step of world length ``step`` and the colour, float32
-    ``(n, 4)``. :func:`step_sample` interpolates it between entries, so a full segment of the ray
+    ``1 − e^{−σt·step}`` of one full step of world length ``step``, the colour, the albedo and the
+    emission, float32 ``(n, 10)`` (:data:`STEP_COLUMNS`). :func:`step_sample` interpolates it between entries, so a full segment of the ray
     cast costs no ``exp``; the difference from ``1 − e^{−σ̂·step}`` of the interpolated σ̂ is second
     order in one entry's change of σt·step (docs/performance.rst, "CPU camera pass")."""
     out = np.zeros((table.shape[0], STEP_COLUMNS), np.float32)
     out[:, 0] = -np.expm1(-np.asarray(table[:, 0], np.float64) * float(step))
     out[:, 1:4] = table[:, 7:10]
+    out[:, 4:10] = table[:, 1:7]
     return out
 
 
@@ -76,43 +78,88 @@ def min_index(a, b):
     return a if a < b else b
 
 
+@scalar(inline=True)
+def corners32(nx, ny, nz, x, y, z):
+    """Corners and fractions of index-space point (x, y, z) on an (nx, ny, nz) grid, float32 and
+    unsigned (:func:`trilinear32`). Positions outside [0, n−1] are clamped as by
+    :func:`.interp.cell_coords`; the lower corner is at most n − 2, so a fraction is in [0, 1] (1 at
+    the last sample); n − 2 of a one-sample axis wraps to the largest uint64 and the upper corner is
+    clamped to n − 1, so such an axis reads its sample twice."""
+    x = clamp32(np.float32(x), np.float32(nx - 1))
+    y = clamp32(np.float32(y), np.float32(ny - 1))
+    z = clamp32(np.float32(z), np.float32(nz - 1))
+    i0 = min_index(np.uint64(np.uint32(x)), np.uint64(nx - 2))
+    j0 = min_index(np.uint64(np.uint32(y)), np.uint64(ny - 2))
+    k0 = min_index(np.uint64(np.uint32(z)), np.uint64(nz - 2))
+    return (i0, min_index(i0 + np.uint64(1), np.uint64(nx - 1)), x - np.float32(i0),
+            j0, min_index(j0 + np.uint64(1), np.uint64(ny - 1)), y - np.float32(j0),
+            k0, min_index(k0 + np.uint64(1), np.uint64(nz - 1)), z - np.float32(k0))
+
+
+@scalar(inline=True)
+def trilinear32(g, x, y, z):
+    """Trilinear value of the 3D array ``g`` at index-space point (x, y, z), float32, unsigned
+    indices: the interpolation of the vectorised lane loops (:mod:`.packet`) and of the per-pixel
+    code that must equal them (:func:`corners32`)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(g.shape[0], g.shape[1], g.shape[2], x, y, z)
+    c00 = g[i0, j0, k0] + fx * (g[i1, j0, k0] - g[i0, j0, k0])
+    c10 = g[i0, j1, k0] + fx * (g[i1, j1, k0] - g[i0, j1, k0])
+    c01 = g[i0, j0, k1] + fx * (g[i1, j0, k1] - g[i0, j0, k1])
+    c11 = g[i0, j1, k1] + fx * (g[i1, j1, k1] - g[i0, j1, k1])
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return c0 + fz * (c1 - c0)
+
+
+@scalar(inline=True)
+def trilinear32_c(g, x, y, z, c):
+    """:func:`trilinear32` of component ``c`` of the 4D array ``g``."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(g.shape[0], g.shape[1], g.shape[2], x, y, z)
+    q = np.uint64(c)
+    c00 = g[i0, j0, k0, q] + fx * (g[i1, j0, k0, q] - g[i0, j0, k0, q])
+    c10 = g[i0, j1, k0, q] + fx * (g[i1, j1, k0, q] - g[i0, j1, k0, q])
+    c01 = g[i0, j0, k1, q] + fx * (g[i1, j0, k1, q] - g[i0, j0, k1, q])
+    c11 = g[i0, j1, k1, q] + fx * (g[i1, j1, k1, q] - g[i0, j1, k1, q])
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return c0 + fz * (c1 - c0)
+
+
+@scalar(force_inline=True)
+def step_lookup(field, stab, lut_lo, lut_inv, x, y, z):
+    """``(q0, f)``: the step-corrected table's entry below the scalar at index-space point (x, y, z)
+    of a LUT-mode medium, and the fraction towards the next (float32; :func:`trilinear32`)."""
+    nt = stab.shape[0]
+    s = trilinear32(field, x, y, z)
+    u = clamp32((s - np.float32(lut_lo)) * np.float32(lut_inv), np.float32(nt - 1))
+    q0 = min_index(np.uint64(np.uint32(u)), np.uint64(nt - 2))
+    return q0, u - np.float32(q0)
+
+
+@scalar(inline=True)
+def step_column(stab, q0, f, c):
+    """Column ``c`` of the step-corrected table interpolated at ``(q0, f)`` (:func:`step_lookup`)."""
+    a = stab[q0, c]
+    return a + f * (stab[q0 + np.uint64(1), c] - a)
+
+
 @scalar(force_inline=True)
 def step_sample(field, stab, lut_lo, lut_inv, x, y, z):
     """(opacity of one full step, colour rgb) at index-space point (x, y, z) of a LUT-mode medium:
     the scalar trilinear at the point, looked up in ``stab`` (:func:`step_table`) — one sample of
-    emission–absorption on a full segment, float32. Positions outside [0, n−1] are clamped as by
-    :func:`.interp.cell_coords`; indices are unsigned (no negative-index wraparound) so the CPU's
-    packet driver (:mod:`.packet`) vectorises it and a CUDA thread keeps its address arithmetic
-    small. A grid axis of one sample reads that sample twice."""
-    nx, ny, nz = field.shape
-    nt = stab.shape[0]
-    x = clamp32(np.float32(x), np.float32(nx - 1))
-    y = clamp32(np.float32(y), np.float32(ny - 1))
-    z = clamp32(np.float32(z), np.float32(nz - 1))
-    # lower corner at most n − 2, so x − i0 is in [0, 1] (1 at the last sample); n − 2 of a
-    # one-sample axis wraps to the largest uint64, and the upper corner is clamped to n − 1
-    i0 = min_index(np.uint64(np.uint32(x)), np.uint64(nx - 2))
-    j0 = min_index(np.uint64(np.uint32(y)), np.uint64(ny - 2))
-    k0 = min_index(np.uint64(np.uint32(z)), np.uint64(nz - 2))
-    i1 = min_index(i0 + np.uint64(1), np.uint64(nx - 1))
-    j1 = min_index(j0 + np.uint64(1), np.uint64(ny - 1))
-    k1 = min_index(k0 + np.uint64(1), np.uint64(nz - 1))
-    fx = x - np.float32(i0)
-    fy = y - np.float32(j0)
-    fz = z - np.float32(k0)
-    c00 = field[i0, j0, k0] + fx * (field[i1, j0, k0] - field[i0, j0, k0])
-    c10 = field[i0, j1, k0] + fx * (field[i1, j1, k0] - field[i0, j1, k0])
-    c01 = field[i0, j0, k1] + fx * (field[i1, j0, k1] - field[i0, j0, k1])
-    c11 = field[i0, j1, k1] + fx * (field[i1, j1, k1] - field[i0, j1, k1])
-    c0 = c00 + fy * (c10 - c00)
-    c1 = c01 + fy * (c11 - c01)
-    s = c0 + fz * (c1 - c0)
-    u = clamp32((s - np.float32(lut_lo)) * np.float32(lut_inv), np.float32(nt - 1))
-    q0 = min_index(np.uint64(np.uint32(u)), np.uint64(nt - 2))
-    q1 = q0 + np.uint64(1)
-    f = u - np.float32(q0)
-    return (stab[q0, 0] + f * (stab[q1, 0] - stab[q0, 0]), stab[q0, 1] + f * (stab[q1, 1] - stab[q0, 1]),
-            stab[q0, 2] + f * (stab[q1, 2] - stab[q0, 2]), stab[q0, 3] + f * (stab[q1, 3] - stab[q0, 3]))
+    emission–absorption on a full segment, float32, unsigned indices (:func:`trilinear32`), so the
+    CPU's packet driver (:mod:`.packet`) vectorises it and a CUDA thread keeps its address
+    arithmetic small."""
+    q0, f = step_lookup(field, stab, lut_lo, lut_inv, x, y, z)
+    return (step_column(stab, q0, f, 0), step_column(stab, q0, f, 1), step_column(stab, q0, f, 2),
+            step_column(stab, q0, f, 3))
+
+
+@scalar(force_inline=True)
+def step_albedo_emission(stab, q0, f):
+    """(albedo rgb, emission rgb) of the step-corrected table at ``(q0, f)`` (:func:`step_lookup`)."""
+    return (step_column(stab, q0, f, 4), step_column(stab, q0, f, 5), step_column(stab, q0, f, 6),
+            step_column(stab, q0, f, 7), step_column(stab, q0, f, 8), step_column(stab, q0, f, 9))
 
 
 @scalar(inline=True)

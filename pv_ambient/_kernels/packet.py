@@ -39,9 +39,10 @@ import numpy as np
 from ._jit import driver, prange, scalar
 from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span
-from .medium import FULL_STEP, MODE_LUT, full_segment, step_sample
-from .models import EMISSION_ABSORPTION
-from .raycast import STREAM_JITTER, TILE, index_ray, medium_sigma_color, row_stride
+from .medium import FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_sample
+from .models import AMBIENT_SCATTERING, EMISSION_ABSORPTION, SINGLE_SCATTERING
+from .raycast import (STREAM_JITTER, TILE, baked_grey, baked_light, baked_rgb, grid_point, index_ray,
+                      medium_albedo_emission, medium_sigma_color, point_weight, row_stride)
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
@@ -50,13 +51,15 @@ LANES = 16
 #: The packet's side in pixels.
 SIDE = 4
 
-# float32 lane fields (the sample's position and whether the lane samples this step)
-X, Y, Z, ACT = 0, 1, 2, 3
-N32 = 4
+# float32 lane fields: the sample's index-space and world position, whether the lane samples this
+# step; for a lit sample its opacity, table entry and fraction, and light-grid position
+X, Y, Z, ACT, WX, WY, WZ, A, Q0, FQ, LX, LY, LZ = range(13)
+N32 = 13
 # float64 lane fields: ray origin and direction in index space, segment start, next boundary,
-# ray end, exit of the current non-empty block, done, transmittance, radiance rgb
-PX, PY, PZ, QX, QY, QZ, TS, TN, T1, TB, DONE, TR, RR, RG, RB = range(15)
-N64 = 15
+# ray end, exit of the current non-empty block, done, transmittance, radiance rgb, the world ray,
+# the in-scattered light rgb of a lit sample
+PX, PY, PZ, QX, QY, QZ, TS, TN, T1, TB, DONE, TR, RR, RG, RB, OX, OY, OZ, DX, DY, DZ, LR, LG, LB = range(24)
+N64 = 24
 
 
 @scalar
@@ -89,6 +92,12 @@ def packet_begin(view, march, i0, j0, row1, W, H, l32, b32, l64, b64):
         l64[b64 + QX * LANES + k] = qx
         l64[b64 + QY * LANES + k] = qy
         l64[b64 + QZ * LANES + k] = qz
+        l64[b64 + OX * LANES + k] = ox
+        l64[b64 + OY * LANES + k] = oy
+        l64[b64 + OZ * LANES + k] = oz
+        l64[b64 + DX * LANES + k] = dx
+        l64[b64 + DY * LANES + k] = dy
+        l64[b64 + DZ * LANES + k] = dz
         if t0 < t1:
             offset = uniform(seed, STREAM_JITTER, j * W + i, 0) if jitter else 0.0
             l64[b64 + TS * LANES + k] = t0
@@ -117,17 +126,24 @@ def lanes_step(l32, b32, l64, b64, step, ert):
                                                          + tm * l64[np.uint64(b64 + QY * LANES + k)])
         l32[np.uint64(b32 + Z * LANES + k)] = np.float32(l64[np.uint64(b64 + PZ * LANES + k)]
                                                          + tm * l64[np.uint64(b64 + QZ * LANES + k)])
+        l32[np.uint64(b32 + WX * LANES + k)] = np.float32(l64[np.uint64(b64 + OX * LANES + k)]
+                                                          + tm * l64[np.uint64(b64 + DX * LANES + k)])
+        l32[np.uint64(b32 + WY * LANES + k)] = np.float32(l64[np.uint64(b64 + OY * LANES + k)]
+                                                          + tm * l64[np.uint64(b64 + DY * LANES + k)])
+        l32[np.uint64(b32 + WZ * LANES + k)] = np.float32(l64[np.uint64(b64 + OZ * LANES + k)]
+                                                          + tm * l64[np.uint64(b64 + DZ * LANES + k)])
         l32[np.uint64(b32 + ACT * LANES + k)] = np.float32(1.0) if ok else np.float32(0.0)
         l64[np.uint64(b64 + TS * LANES + k)] = tn if ok else t
         l64[np.uint64(b64 + TN * LANES + k)] = tn + step if ok else tn
 
 
 @scalar
-def lanes_fix(march, medium, l32, b32, l64, b64):
+def lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64):
     """Pass 2 (scalar): every lane :func:`lanes_step` left marches as :func:`.raycast.march_pixel`
     does — block lookups and skips, partial segments sampled with ``exp`` of the interpolated σt,
     early termination — until it has a full segment to sample (its position written, active) or
-    is done. Returns the number of active lanes."""
+    is done. ``model``: emission–absorption, or single scattering with baked lights (the lit
+    sample of :func:`.raycast.march_pixel`). Returns the number of active lanes."""
     step, ert = march.step, march.ert
     maj, block = medium.maj, medium.block
     active = 0
@@ -151,6 +167,12 @@ def lanes_fix(march, medium, l32, b32, l64, b64):
         qx = l64[b64 + QX * LANES + k]
         qy = l64[b64 + QY * LANES + k]
         qz = l64[b64 + QZ * LANES + k]
+        ox = l64[b64 + OX * LANES + k]
+        oy = l64[b64 + OY * LANES + k]
+        oz = l64[b64 + OZ * LANES + k]
+        dx = l64[b64 + DX * LANES + k]
+        dy = l64[b64 + DY * LANES + k]
+        dz = l64[b64 + DZ * LANES + k]
         found = 0
         while t < t1:
             te = min(tnext, t1)
@@ -174,13 +196,22 @@ def lanes_fix(march, medium, l32, b32, l64, b64):
                 l32[b32 + X * LANES + k] = x
                 l32[b32 + Y * LANES + k] = y
                 l32[b32 + Z * LANES + k] = z
+                l32[b32 + WX * LANES + k] = ox + tm * dx
+                l32[b32 + WY * LANES + k] = oy + tm * dy
+                l32[b32 + WZ * LANES + k] = oz + tm * dz
                 l32[b32 + ACT * LANES + k] = 1.0
                 t = te
                 tnext = te + step
                 found = 1
                 break
-            sig, cr, cg, cb, _, _, _ = medium_sigma_color(MODE_LUT, medium, x, y, z)
+            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(MODE_LUT, medium, x, y, z)
             if sig > 0.0:
+                if model != EMISSION_ABSORPTION:  # as march_pixel: the light, then albedo and emission
+                    lr, lg, lb = baked_light(x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, lights, grid)
+                    ar, ag, ab, er, eg, eb = medium_albedo_emission(MODE_LUT, medium, k0, k1, f, x, y, z)
+                    cr = ar * lr + (1.0 - ar) * er
+                    cg = ag * lg + (1.0 - ag) * eg
+                    cb = ab * lb + (1.0 - ab) * eb
                 e = math.exp(-sig * (te - t))
                 w = T * (1.0 - e)
                 l64[b64 + RR * LANES + k] += w * cr
@@ -218,6 +249,72 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv):
         l64[np.uint64(b64 + TR * LANES + k)] = T - w
 
 
+@scalar(inline=True)
+def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
+    """Pass 3 of single scattering with baked lights (vectorised): the opacity and table entry of
+    every lane's sample, the baked light one light slot at a time (:func:`.raycast.baked_light`'s
+    terms, in its order), then the source ``a·L + (1 − a)·Le`` composited."""
+    for k in range(LANES):
+        q0, fq = step_lookup(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
+                             l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
+        l32[np.uint64(b32 + A * LANES + k)] = step_column(stab, q0, fq, 0) * l32[np.uint64(b32 + ACT * LANES + k)]
+        l32[np.uint64(b32 + Q0 * LANES + k)] = np.float32(q0)
+        l32[np.uint64(b32 + FQ * LANES + k)] = fq
+        lx, ly, lz = grid_point(grid, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
+                                l32[np.uint64(b32 + Z * LANES + k)])
+        l32[np.uint64(b32 + LX * LANES + k)] = lx
+        l32[np.uint64(b32 + LY * LANES + k)] = ly
+        l32[np.uint64(b32 + LZ * LANES + k)] = lz
+        l64[np.uint64(b64 + LR * LANES + k)] = 0.0
+        l64[np.uint64(b64 + LG * LANES + k)] = 0.0
+        l64[np.uint64(b64 + LB * LANES + k)] = 0.0
+    inc = grid.inc
+    nch = grid.baked
+    lkind = lights.kind
+    slot = 0
+    for l in range(lkind.shape[0]):
+        if lkind[l] == 0:
+            lanes_baked_slot(l32, b32, l64, b64, inc, slot * nch, nch, lights, l, 1)
+            slot += 1
+    if (slot + 1) * nch <= inc.shape[3]:  # the directional lights' slot
+        lanes_baked_slot(l32, b32, l64, b64, inc, slot * nch, nch, lights, 0, 0)
+    for k in range(LANES):
+        ar, ag, ab, er, eg, eb = step_albedo_emission(stab, np.uint64(l32[np.uint64(b32 + Q0 * LANES + k)]),
+                                                      l32[np.uint64(b32 + FQ * LANES + k)])
+        T = l64[np.uint64(b64 + TR * LANES + k)]
+        w = T * l32[np.uint64(b32 + A * LANES + k)]
+        l64[np.uint64(b64 + RR * LANES + k)] += w * (ar * l64[np.uint64(b64 + LR * LANES + k)] + (1.0 - ar) * er)
+        l64[np.uint64(b64 + RG * LANES + k)] += w * (ag * l64[np.uint64(b64 + LG * LANES + k)] + (1.0 - ag) * eg)
+        l64[np.uint64(b64 + RB * LANES + k)] += w * (ab * l64[np.uint64(b64 + LB * LANES + k)] + (1.0 - ab) * eb)
+        l64[np.uint64(b64 + TR * LANES + k)] = T - w
+
+
+@scalar(inline=True)
+def lanes_baked_slot(l32, b32, l64, b64, inc, q, nch, lights, l, point):
+    """Add light slot ``q`` of the baked in-scattering (``nch`` channels) to every lane's light,
+    weighted by point light ``l``'s ``1/max(d², d2min)`` when ``point`` (vectorised loops, one per
+    kind of slot, so no branch is left inside them)."""
+    if nch == 1:
+        for k in range(LANES):
+            v = baked_grey(inc, q, l32[np.uint64(b32 + LX * LANES + k)], l32[np.uint64(b32 + LY * LANES + k)],
+                           l32[np.uint64(b32 + LZ * LANES + k)])
+            w = point_weight(lights, l, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
+                             l32[np.uint64(b32 + WZ * LANES + k)]) if point else 1.0
+            r = w * v
+            l64[np.uint64(b64 + LR * LANES + k)] += r
+            l64[np.uint64(b64 + LG * LANES + k)] += r
+            l64[np.uint64(b64 + LB * LANES + k)] += r
+    else:
+        for k in range(LANES):
+            vr, vg, vb = baked_rgb(inc, q, l32[np.uint64(b32 + LX * LANES + k)], l32[np.uint64(b32 + LY * LANES + k)],
+                                   l32[np.uint64(b32 + LZ * LANES + k)])
+            w = point_weight(lights, l, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
+                             l32[np.uint64(b32 + WZ * LANES + k)]) if point else 1.0
+            l64[np.uint64(b64 + LR * LANES + k)] += w * vr
+            l64[np.uint64(b64 + LG * LANES + k)] += w * vg
+            l64[np.uint64(b64 + LB * LANES + k)] += w * vb
+
+
 @scalar
 def packet_end(march, i0, j0, row1, l64, b64, out_rad, out_alpha):
     """Write the packet's pixels: radiance plus the background seen through, and alpha."""
@@ -235,34 +332,47 @@ def packet_end(march, i0, j0, row1, l64, b64, out_rad, out_alpha):
         out_alpha[j, i] = 1.0 - T
 
 
-@driver
-def packet_rows_ea(view, march, medium, row0, row1, out_rad, out_alpha, l32, l64):
-    """Rows [row0, row1) of an emission–absorption image of a LUT-mode medium in packets: the
-    pixels in :data:`.raycast.TILE`² tiles in golden-ratio stride order (as the scalar driver), each
-    tile in 4 × 4 packets; ``l32``/``l64`` hold :data:`N32`/:data:`N64` lane fields per thread."""
-    H, W = out_alpha.shape
-    step, ert = march.step, march.ert
-    field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
-    n_rows = (row1 - row0 + TILE - 1) // TILE
-    n_cols = (W + TILE - 1) // TILE
-    n = n_rows * n_cols
-    stride = row_stride(n)
-    for q in prange(n):
-        tq = (q * stride) % n
-        a = tq // n_cols
-        b = tq - a * n_cols
-        b32 = numba.get_thread_id() * (N32 * LANES)
-        b64 = numba.get_thread_id() * (N64 * LANES)
-        j_end = min(row0 + (a + 1) * TILE, row1)
-        for j0 in range(row0 + a * TILE, j_end, SIDE):
-            for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
-                packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
-                while True:
-                    lanes_step(l32, b32, l64, b64, step, ert)
-                    if lanes_fix(march, medium, l32, b32, l64, b64) == 0:
-                        break
-                    lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv)
-                packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
+def packet_driver(model):
+    """The packet driver of ray-cast ``model`` (emission–absorption, or single scattering with
+    baked lights — which ambient scattering and diffusion with baked lights march as): rows
+    [row0, row1) of an image of a LUT-mode medium, the pixels in :data:`.raycast.TILE`² tiles in
+    golden-ratio stride order (as the scalar driver), each tile in 4 × 4 packets; ``l32``/``l64``
+    hold :data:`N32`/:data:`N64` lane fields per thread. ``model`` is the closure's constant (one
+    compiled driver per model, cached on disk apart)."""
+
+    def packet_rows(view, march, medium, lights, grid, row0, row1, out_rad, out_alpha, l32, l64):
+        H, W = out_alpha.shape
+        step, ert = march.step, march.ert
+        field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
+        n_rows = (row1 - row0 + TILE - 1) // TILE
+        n_cols = (W + TILE - 1) // TILE
+        n = n_rows * n_cols
+        stride = row_stride(n)
+        for q in prange(n):
+            tq = (q * stride) % n
+            a = tq // n_cols
+            b = tq - a * n_cols
+            b32 = numba.get_thread_id() * (N32 * LANES)
+            b64 = numba.get_thread_id() * (N64 * LANES)
+            j_end = min(row0 + (a + 1) * TILE, row1)
+            for j0 in range(row0 + a * TILE, j_end, SIDE):
+                for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
+                    packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
+                    while True:
+                        lanes_step(l32, b32, l64, b64, step, ert)
+                        if lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64) == 0:
+                            break
+                        if model == EMISSION_ABSORPTION:
+                            lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv)
+                        else:
+                            lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+                    packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
+
+    return driver(packet_rows)
+
+
+#: :func:`packet_driver` of each model that runs in packets (compiled on first use).
+PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING)}
 
 
 def enabled() -> bool:
@@ -271,9 +381,13 @@ def enabled() -> bool:
     return os.environ.get("PV_AMBIENT_PACKETS", "1") != "0"
 
 
-def applies(model, medium) -> bool:
-    """Whether ray-cast ``model`` on ``medium`` (a :class:`.records.Medium`) runs in packets."""
-    return enabled() and model == EMISSION_ABSORPTION and int(medium.mode) == MODE_LUT
+def applies(model, medium, grid) -> bool:
+    """Whether ray-cast ``model`` on ``medium`` (a :class:`.records.Medium`) with light grid ``grid``
+    runs in packets: emission–absorption, and single or ambient scattering whose lights' in-scattering
+    is baked (ambient scattering's ball term is in the bake), of a LUT-mode medium."""
+    if not enabled() or int(medium.mode) != MODE_LUT:
+        return False
+    return model == EMISSION_ABSORPTION or (model in (SINGLE_SCATTERING, AMBIENT_SCATTERING) and grid.baked != 0)
 
 
 def scratch():
@@ -282,18 +396,19 @@ def scratch():
     return np.zeros(n * N32 * LANES, np.float32), np.zeros(n * N64 * LANES, np.float64)
 
 
-def raycast_packets(model, view, march, medium, row0, row1, out_rad, out_alpha):
+def raycast_packets(model, view, march, medium, lights, grid, row0, row1, out_rad, out_alpha):
     """Rows [row0, row1) of ray-cast ``model``'s image in packets (:func:`applies` must hold)."""
     l32, l64 = scratch()
-    packet_rows_ea(view, march, medium, row0, row1, out_rad, out_alpha, l32, l64)
+    driver_model = EMISSION_ABSORPTION if model == EMISSION_ABSORPTION else SINGLE_SCATTERING
+    PACKET_DRIVERS[driver_model](view, march, medium, lights, grid, row0, row1, out_rad, out_alpha, l32, l64)
 
 
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: in packets where they apply
     (:func:`applies`), else one ray at a time (:func:`.raycast.raycast_image`); the scene in the
     records of :mod:`.records`."""
-    if applies(model, medium):
-        raycast_packets(model, view, march, medium, row0, row1, out_rad, out_alpha)
+    if applies(model, medium, grid):
+        raycast_packets(model, view, march, medium, lights, grid, row0, row1, out_rad, out_alpha)
     else:
         raycast_image_scalar(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad,
                              out_alpha)

@@ -32,14 +32,14 @@ def blob(dims=(21, 18, 15)):
 CAM = Camera((0.4, -3.5, 0.8), (0.0, 0.05, 0.0), (0, 0, 1), view_angle=38)
 
 
-def both(r, monkeypatch, **kw):
+def both(r, monkeypatch, model="emission_absorption", **kw):
     """(packet image, per-pixel image) of ``r``'s emission–absorption frame, and how many rows the
     packet driver rendered."""
     calls = []
     real = packet.raycast_packets
 
     def counting(*a):
-        calls.append(a[5] - a[4])
+        calls.append(a[7] - a[6])
         return real(*a)
 
     monkeypatch.setattr(packet, "raycast_packets", counting)
@@ -47,7 +47,7 @@ def both(r, monkeypatch, **kw):
     out = []
     for flag in ("1", "0"):
         monkeypatch.setenv("PV_AMBIENT_PACKETS", flag)
-        res = r.render(camera=CAM, model="emission_absorption", progress_bar=False, **kw)
+        res = r.render(camera=CAM, model=model, progress_bar=False, **kw)
         out.append((np.asarray(res.radiance, np.float64), np.asarray(res.alpha, np.float64)))
     return out[0], out[1], sum(calls)
 
@@ -90,6 +90,21 @@ def test_packets_equal_the_per_pixel_march(case, monkeypatch):
     assert np.abs(pa_alpha - px_alpha).max() <= PACKET_TOL
 
 
+@pytest.mark.parametrize("model, rgb", [("single_scattering", False), ("single_scattering", True),
+                                        ("ambient_scattering", True)])
+def test_lit_packets_equal_the_per_pixel_march(model, rgb, monkeypatch):
+    """Baked in-scattering (isotropic phase): a point light inside the blob (its 1/d² at the sample)
+    and a directional light; grey slots (white lights, grey albedo) or rgb slots."""
+    tf = pa.TransferFunction(cmap="viridis", clim=(0.1, 1.0), opacity="linear", opacity_unit_distance=0.05,
+                             albedo=0.8)
+    power = (3.0, 2.0, 1.0) if rgb else 2.0
+    lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=power), pa.DirectionalLight((0.3, 0.5, -1.0), irradiance=0.7)]
+    r = pa.Renderer(blob(), transfer_function=tf, lights=lights)
+    (a, aa), (b, ba), rows = both(r, monkeypatch, model=model, quality="preview", jitter=True)
+    assert rows > 0 and b.mean() > 1e-3
+    assert np.abs(a - b).max() <= PACKET_TOL * max(1.0, b.max()) and np.abs(aa - ba).max() <= PACKET_TOL
+
+
 def test_tiny_grids(monkeypatch):
     """Axes of two samples render as the per-pixel march does; an axis of one sample (the kernels'
     placeholders) reads that sample twice, never past the array."""
@@ -125,12 +140,13 @@ def test_step_corrected_table_is_exact_for_a_constant_medium():
 def test_step_table_columns():
     table = np.zeros((4, 10), np.float32)
     table[:, 0] = [0.0, 1.0, 10.0, 1e4]
-    table[:, 7:10] = np.arange(12).reshape(4, 3)
+    table[:, 1:10] = np.arange(36).reshape(4, 9)
     t = step_table(table, 0.05)
-    assert t.dtype == np.float32 and t.shape == (4, 4)
+    assert t.dtype == np.float32 and t.shape == (4, 10)
     assert np.allclose(t[:, 0], 1.0 - np.exp(-table[:, 0].astype(np.float64) * 0.05), rtol=1e-6)
     assert t[0, 0] == 0.0 and t[3, 0] == 1.0  # no underflow or NaN at extreme extinction
-    assert np.array_equal(t[:, 1:], table[:, 7:10])
+    assert np.array_equal(t[:, 1:4], table[:, 7:10])  # colour
+    assert np.array_equal(t[:, 4:10], table[:, 1:7])  # albedo, emission
 
 
 _ASM_SCRIPT = r"""
@@ -144,8 +160,8 @@ g = pv.ImageData(dimensions=(6, 6, 6), spacing=(0.2,) * 3, origin=(-0.5,) * 3)
 g["d"] = np.linspace(0, 1, g.n_points).astype(np.float32)
 r = pa.Renderer(g, transfer_function=pa.TransferFunction(clim=(0, 1)))
 r.render(camera=pa.Camera((0, -3, 0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), progress_bar=False)
-sig = packet.packet_rows_ea.signatures[0]
-asm = packet.packet_rows_ea.inspect_asm(sig)
+drv = packet.PACKET_DRIVERS[0]
+asm = drv.inspect_asm(drv.signatures[0])
 print("POLICY", load_policy()["loads"])
 print("PACKED_FMA", len(re.findall(r"vfmadd\w*ps\s+%[yz]mm", asm)))
 print("GATHERS", len(re.findall(r"vgather\w+", asm)))
