@@ -524,8 +524,8 @@ def packet_line():
     pol = load_policy()
     if not packet.enabled():
         return "camera pass: the scalar driver everywhere (PV_AMBIENT_PACKETS=0)"
-    return (f"camera pass: emission-absorption of a table TF in packets of {packet.LANES} rays, loads "
-            f"{pol['loads']} ({pol['why']}); other models one ray at a time")
+    return (f"camera pass: emission-absorption and baked single/ambient scattering of a table TF in packets of "
+            f"{packet.LANES} rays, loads {pol['loads']} ({pol['why']}); the others one ray at a time")
 
 
 def command_line():

@@ -10,8 +10,9 @@ termination and jitter — split in three passes per step of the packet:
 2. :func:`lanes_fix` (scalar): the other lanes do what :func:`.raycast.march_pixel` does at a block
    boundary, on a partial segment (the jittered first, the last: ``exp`` of the interpolated σt)
    and at the end of the ray, until each has a full segment to sample or is done;
-3. :func:`lanes_sample_ea` (vectorised): every active lane samples its segment with the scalar
-   function the per-pixel march uses, :func:`.medium.step_sample`, and composites.
+3. :func:`lanes_sample_ea` / :func:`lanes_sample_lit` (vectorised): every active lane samples its
+   segment with the scalar functions the per-pixel march uses (:func:`.medium.step_sample`;
+   :func:`.medium.step_lookup` and :func:`.raycast.baked_light`'s terms) and composites.
 
 Lane state is a flat structure of arrays per thread (float32 positions for the sample, float64
 ray state and sums: float64 where sums accumulate), indexed with unsigned integers. Why these
@@ -22,9 +23,10 @@ assignments, so the vectorised passes are inlined into the driver and create no 
 tuples or booleans there. ``tests/kernels/test_packet.py`` compiles the driver outside the disk
 cache and checks that vector FMAs are in its assembly.
 
-Which models and media: emission–absorption of a LUT-mode (table) transfer function; every other
-case runs the scalar driver (:func:`.raycast.raycast_driver`), as does everything when
-``PV_AMBIENT_PACKETS=0`` (the scalar fallback). :func:`raycast_image` is the CPU camera pass's
+Which models and media (:func:`applies`): emission–absorption, and single and ambient scattering
+with baked in-scattering, of a LUT-mode (table) transfer function; every other case runs the scalar
+driver (:func:`.raycast.raycast_driver`), as does everything when ``PV_AMBIENT_PACKETS=0`` (the
+scalar fallback). :func:`raycast_image` is the CPU camera pass's
 entry (:mod:`pv_ambient.backend`).
 """
 
