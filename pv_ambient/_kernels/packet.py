@@ -12,7 +12,7 @@ termination and jitter — split in three passes per step of the packet:
    and at the end of the ray, until each has a full segment to sample or is done;
 3. :func:`lanes_sample_ea` / :func:`lanes_sample_lit` (vectorised): every active lane samples its
    segment with the scalar functions the per-pixel march uses (:func:`.medium.step_sample`;
-   :func:`.medium.step_lookup` and :func:`.raycast.baked_light`'s terms) and composites.
+   :func:`.medium.step_lookup` and :func:`.baked.baked_light`'s terms) and composites.
 
 Lane state is a flat structure of arrays per thread (float32 positions for the sample, float64
 ray state and sums: float64 where sums accumulate), indexed with unsigned integers. Why these
@@ -43,8 +43,8 @@ from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span
 from .medium import FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_sample
 from .models import AMBIENT_SCATTERING, EMISSION_ABSORPTION, SINGLE_SCATTERING
-from .raycast import (STREAM_JITTER, TILE, baked_grey, baked_light, baked_rgb, grid_point, index_ray,
-                      medium_albedo_emission, medium_sigma_color, point_weight, row_stride)
+from .baked import baked_grey, baked_light, baked_rgb, grid_point, point_weight
+from .raycast import STREAM_JITTER, TILE, index_ray, medium_albedo_emission, medium_sigma_color, row_stride
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
@@ -254,7 +254,7 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv):
 @scalar(inline=True)
 def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
     """Pass 3 of single scattering with baked lights (vectorised): the opacity and table entry of
-    every lane's sample, the baked light one light slot at a time (:func:`.raycast.baked_light`'s
+    every lane's sample, the baked light one light slot at a time (:func:`.baked.baked_light`'s
     terms, in its order), then the source ``a·L + (1 − a)·Le`` composited."""
     for k in range(LANES):
         q0, fq = step_lookup(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],

@@ -1,4 +1,4 @@
-"""Tests bit-identity with an old release: every model's lit radiance against 0.2.0's saved arrays
+"""Tests agreement with an old release: every model's lit radiance against 0.2.0's saved arrays
 (tests/data/lit_baseline.py), through the Renderer, render() and the JSON scene → CLI."""
 import importlib.util
 import warnings
@@ -12,7 +12,7 @@ from pv_ambient import datasets
 DATA = Path(__file__).resolve().parent.parent / "data"
 
 
-def test_radiance_with_explicit_lights_is_bit_identical_to_0_2_0():
+def test_radiance_with_explicit_lights_equals_0_2_0():
     """Every model, through Renderer, render() and the JSON scene → CLI → .npy, against arrays saved
     by the code issue 17's changes were merged onto (tests/data/lit_baseline.py --save, run at 4b6a28e:
     0.2.0 with the speed work of issue 16, whose baked in-scattering moves lit radiance by design)."""
@@ -31,7 +31,14 @@ def test_radiance_with_explicit_lights_is_bit_identical_to_0_2_0():
     # image bit for bit, the CLI's image equals the API's, and the new image has the saved one's
     # expectation (z-test on the per-pixel differences at 4σ: false alarm 6e-5).
     by_design = {"supernova/pt/radiance", "supernova/cli_pt/radiance"}
-    moved = [k for k in saved.files if k not in by_design and not np.array_equal(saved[k], new[k])]
+    # By design since 0.4.0's CPU camera pass (docs/performance.rst, "CPU camera pass"): a full ray
+    # step reads the step-corrected opacity table instead of exp of the interpolated σt, and the baked
+    # in-scattering is interpolated in float32. The ray-cast images move by float32 rounding and the
+    # table's second-order term: at most 1.1e-6 of the brightest pixel here; the bound, 1e-5, is a
+    # tenth of the camera-pass issue's 1e-4 budget.
+    tol = 1e-5
+    moved = [k for k in saved.files if k not in by_design
+             and np.abs(saved[k].astype(np.float64) - new[k]).max() > tol * float(np.abs(saved[k]).max())]
     assert not moved, f"radiance changed: {moved}"
     assert all(float(saved[k].max()) > 0 for k in saved.files if "radiance" in k)  # nothing trivially black
     name, vol, tf, lights, g, cam = mod.scenes()[0]

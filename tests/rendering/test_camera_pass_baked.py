@@ -55,7 +55,8 @@ def test_baked_lookup_divides_by_distance_squared():
     # I e^{−τ}/(4π d²) with τ interpolated — against the exact per-sample evaluation at points
     # between nodes, near and far from the light
     from pv_ambient._kernels import records as K
-    from pv_ambient._kernels.raycast import baked_light, direct_light
+    from pv_ambient._kernels.baked import baked_light
+    from pv_ambient._kernels.raycast import direct_light
 
     grid_data = physical_grid(n=9, sigma=0.5, noise=False)
     light = PointLight((0.1, 0.05, -0.1), intensity=2.0)

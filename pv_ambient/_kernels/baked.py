@@ -1,0 +1,94 @@
+"""The baked in-scattering read at a sample (docs/models.rst, "Baked in-scattering"): the
+lights' in-scattered light per unit albedo, baked on the light grid for an isotropic phase function
+(:func:`.raycast.bake_incident`), interpolated at the sample, with each point light's 1/d² applied
+there. The per-pixel march (:func:`.raycast.lit_source`) sums it over the light slots in
+:func:`baked_light`; the packet driver (:mod:`.packet`) adds the same terms one slot at a time, in
+the same order, across 16 rays. The sample's point and the interpolation are float32; the sums
+float64.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._jit import scalar
+from .medium import trilinear32_c
+
+
+@scalar(force_inline=True)
+def grid_point(grid, x, y, z):
+    """The light grid's index coordinates (float32) of index-space point (x, y, z) (float32): as
+    the packet driver computes them, so the per-pixel march equals it."""
+    llo, linv = grid.lo, grid.inv_step
+    return (np.float32((x - llo[0]) * linv[0]), np.float32((y - llo[1]) * linv[1]),
+            np.float32((z - llo[2]) * linv[2]))
+
+
+@scalar(force_inline=True)
+def point_weight(lights, l, wx, wy, wz):
+    """``1 / max(d², d2min)`` of point light ``l`` at world point w (float32): the 1/d² that
+    :func:`baked_light` applies at the sample."""
+    lvec = lights.vec
+    vx = wx - lvec[l, 0]
+    vy = wy - lvec[l, 1]
+    vz = wz - lvec[l, 2]
+    return 1.0 / max(vx * vx + vy * vy + vz * vz, lights.d2min)
+
+
+@scalar(force_inline=True)
+def baked_grey(inc, q, lx, ly, lz):
+    """Channel ``q`` of the baked in-scattering at light-grid point (lx, ly, lz) (float32)."""
+    return trilinear32_c(inc, lx, ly, lz, q)
+
+
+@scalar(force_inline=True)
+def baked_rgb(inc, q, lx, ly, lz):
+    """Channels ``q … q + 2`` of the baked in-scattering at light-grid point (lx, ly, lz) (float32)."""
+    return trilinear32_c(inc, lx, ly, lz, q), trilinear32_c(inc, lx, ly, lz, q + 1), trilinear32_c(inc, lx, ly, lz, q + 2)
+
+
+@scalar(inline=True)
+def baked_light(x, y, z, wx, wy, wz, lights, grid):
+    """The in-scattered light (rgb, per unit albedo) from the baked ``grid.inc``: per point light its
+    smooth factor ``I_j (T_j p + Φ_j D_j)`` interpolated and divided by ``max(d_j², d2min)`` here, at
+    the sample (the 1/d² singularity is not interpolated), plus the directional lights' summed slot.
+    ``grid.baked`` is the number of channels per slot (1: grey, 3: rgb); see :func:`bake_incident`.
+    The point and the interpolation are float32 (:func:`grid_point`, :func:`point_weight`), the sums
+    float64: the packet driver (:mod:`.packet`) computes the same, one light at a time."""
+    inc = grid.inc
+    nch = grid.baked
+    lkind = lights.kind
+    lx, ly, lz = grid_point(grid, np.float32(x), np.float32(y), np.float32(z))
+    px, py, pz = np.float32(wx), np.float32(wy), np.float32(wz)
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    slot = 0
+    for l in range(lkind.shape[0]):
+        if lkind[l] == 0:
+            w = point_weight(lights, l, px, py, pz)
+            q = slot * nch
+            if nch == 1:
+                r = w * baked_grey(inc, q, lx, ly, lz)
+                sr += r
+                sg += r
+                sb += r
+            else:
+                vr, vg, vb = baked_rgb(inc, q, lx, ly, lz)
+                sr += w * vr
+                sg += w * vg
+                sb += w * vb
+            slot += 1
+    if (slot + 1) * nch <= inc.shape[3]:  # the directional lights' slot
+        q = slot * nch
+        if nch == 1:
+            r = baked_grey(inc, q, lx, ly, lz)
+            sr += r
+            sg += r
+            sb += r
+        else:
+            vr, vg, vb = baked_rgb(inc, q, lx, ly, lz)
+            sr += vr
+            sg += vg
+            sb += vb
+    return sr, sg, sb
