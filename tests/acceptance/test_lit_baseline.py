@@ -35,7 +35,7 @@ def test_radiance_with_explicit_lights_equals_0_2_0():
     # step reads the step-corrected opacity table instead of exp of the interpolated σt, and the baked
     # in-scattering is interpolated in float32. The ray-cast images move by float32 rounding and the
     # table's second-order term: at most 1.1e-6 of the brightest pixel here; the bound, 1e-5, is a
-    # tenth of the camera-pass issue's 1e-4 budget.
+    # tenth of the 1e-4 that the CPU camera pass may move an image where nothing is approximated.
     tol = 1e-5
     moved = [k for k in saved.files if k not in by_design
              and np.abs(saved[k].astype(np.float64) - new[k]).max() > tol * float(np.abs(saved[k]).max())]
