@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import scalar
-from .medium import trilinear32_c
+from .medium import corner32, corners32, trilinear32_c
 
 
 @scalar(force_inline=True)
@@ -43,8 +43,12 @@ def baked_grey(inc, q, lx, ly, lz):
 
 @scalar(force_inline=True)
 def baked_rgb(inc, q, lx, ly, lz):
-    """Channels ``q … q + 2`` of the baked in-scattering at light-grid point (lx, ly, lz) (float32)."""
-    return trilinear32_c(inc, lx, ly, lz, q), trilinear32_c(inc, lx, ly, lz, q + 1), trilinear32_c(inc, lx, ly, lz, q + 2)
+    """Channels ``q … q + 2`` of the baked in-scattering at light-grid point (lx, ly, lz) (float32),
+    the corners located once."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(inc.shape[0], inc.shape[1], inc.shape[2], lx, ly, lz)
+    return (corner32(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q),
+            corner32(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1),
+            corner32(inc, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2))
 
 
 @scalar(inline=True)

@@ -8,6 +8,8 @@ from ``field`` and albedo/emission from ``aux`` (physical arrays, or a baked TF)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._jit import driver, prange, scalar
@@ -22,9 +24,9 @@ MODE_GRID = 1
 #: rounding of ``t``.
 FULL_STEP = 1.0 - 1e-9
 
-#: Columns of :func:`step_table`: the opacity of one full step, the colour (rgb), the albedo (rgb)
-#: and the emission (rgb).
-STEP_COLUMNS = 10
+#: Columns of :func:`step_table`: the opacity of one full step, the colour (rgb), the albedo (rgb),
+#: the emission (rgb) and σt.
+STEP_COLUMNS = 11
 
 
 @scalar(inline=True)
@@ -47,14 +49,15 @@ def lut_value(table, k0, k1, f, col):
 def step_table(table, step):
     """The step-corrected table of a LUT-mode medium (VTK's opacity correction for the sample
     distance): per entry of ``table`` (columns as :mod:`pv_ambient.inputs.transfer`) the opacity
-    ``1 − e^{−σt·step}`` of one full step of world length ``step``, the colour, the albedo and the
-    emission, float32 ``(n, 10)`` (:data:`STEP_COLUMNS`). :func:`step_sample` interpolates it between entries, so a full segment of the ray
+    ``1 − e^{−σt·step}`` of one full step of world length ``step``, the colour, the albedo, the
+    emission and σt (for a partial step: :func:`step_opacity`), float32 ``(n, 11)`` (:data:`STEP_COLUMNS`). :func:`step_sample` interpolates it between entries, so a full segment of the ray
     cast costs no ``exp``; the difference from ``1 − e^{−σ̂·step}`` of the interpolated σ̂ is second
     order in one entry's change of σt·step (docs/performance.rst, "CPU camera pass")."""
     out = np.zeros((table.shape[0], STEP_COLUMNS), np.float32)
     out[:, 0] = -np.expm1(-np.asarray(table[:, 0], np.float64) * float(step))
     out[:, 1:4] = table[:, 7:10]
     out[:, 4:10] = table[:, 1:7]
+    out[:, 10] = table[:, 0]
     return out
 
 
@@ -81,19 +84,19 @@ def min_index(a, b):
 @scalar(inline=True)
 def corners32(nx, ny, nz, x, y, z):
     """Corners and fractions of index-space point (x, y, z) on an (nx, ny, nz) grid, float32 and
-    unsigned (:func:`trilinear32`). Positions outside [0, n−1] are clamped as by
-    :func:`.interp.cell_coords`; the lower corner is at most n − 2, so a fraction is in [0, 1] (1 at
-    the last sample); n − 2 of a one-sample axis wraps to the largest uint64 and the upper corner is
+    unsigned 32-bit (:func:`trilinear32`; a CUDA thread then holds an index in one register).
+    Positions outside [0, n−1] are clamped as by :func:`.interp.cell_coords`; the lower corner is at most n − 2, so a fraction is in [0, 1] (1 at
+    the last sample); n − 2 of a one-sample axis wraps to the largest uint32 and the upper corner is
     clamped to n − 1, so such an axis reads its sample twice."""
     x = clamp32(np.float32(x), np.float32(nx - 1))
     y = clamp32(np.float32(y), np.float32(ny - 1))
     z = clamp32(np.float32(z), np.float32(nz - 1))
-    i0 = min_index(np.uint64(np.uint32(x)), np.uint64(nx - 2))
-    j0 = min_index(np.uint64(np.uint32(y)), np.uint64(ny - 2))
-    k0 = min_index(np.uint64(np.uint32(z)), np.uint64(nz - 2))
-    return (i0, min_index(i0 + np.uint64(1), np.uint64(nx - 1)), x - np.float32(i0),
-            j0, min_index(j0 + np.uint64(1), np.uint64(ny - 1)), y - np.float32(j0),
-            k0, min_index(k0 + np.uint64(1), np.uint64(nz - 1)), z - np.float32(k0))
+    i0 = min_index(np.uint32(x), np.uint32(nx - 2))
+    j0 = min_index(np.uint32(y), np.uint32(ny - 2))
+    k0 = min_index(np.uint32(z), np.uint32(nz - 2))
+    return (i0, min_index(i0 + np.uint32(1), np.uint32(nx - 1)), x - np.float32(i0),
+            j0, min_index(j0 + np.uint32(1), np.uint32(ny - 1)), y - np.float32(j0),
+            k0, min_index(k0 + np.uint32(1), np.uint32(nz - 1)), z - np.float32(k0))
 
 
 @scalar(inline=True)
@@ -115,7 +118,13 @@ def trilinear32(g, x, y, z):
 def trilinear32_c(g, x, y, z, c):
     """:func:`trilinear32` of component ``c`` of the 4D array ``g``."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(g.shape[0], g.shape[1], g.shape[2], x, y, z)
-    q = np.uint64(c)
+    return corner32(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c)
+
+
+@scalar(inline=True)
+def corner32(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c):
+    """Component ``c`` of the 4D array ``g`` interpolated between corners located by :func:`corners32`."""
+    q = np.uint32(c)
     c00 = g[i0, j0, k0, q] + fx * (g[i1, j0, k0, q] - g[i0, j0, k0, q])
     c10 = g[i0, j1, k0, q] + fx * (g[i1, j1, k0, q] - g[i0, j1, k0, q])
     c01 = g[i0, j0, k1, q] + fx * (g[i1, j0, k1, q] - g[i0, j0, k1, q])
@@ -141,6 +150,16 @@ def step_column(stab, q0, f, c):
     """Column ``c`` of the step-corrected table interpolated at ``(q0, f)`` (:func:`step_lookup`)."""
     a = stab[q0, c]
     return a + f * (stab[q0 + np.uint64(1), c] - a)
+
+
+@scalar(force_inline=True)
+def step_opacity(stab, q0, f, full, length):
+    """The opacity of a segment of world length ``length`` at the step-corrected table's ``(q0, f)``
+    (:func:`step_lookup`): the table's column for a full step (``full`` non-zero:
+    :func:`full_segment`), else ``1 − e^{−σt·length}`` of the interpolated σt (float64)."""
+    if full != 0.0:
+        return np.float64(step_column(stab, q0, f, 0))
+    return 1.0 - math.exp(-np.float64(step_column(stab, q0, f, 10)) * length)
 
 
 @scalar(force_inline=True)

@@ -8,7 +8,7 @@ termination and jitter — split in three passes per step of the packet:
 1. :func:`lanes_step` (vectorised): every lane whose next segment is a full step inside its current
    non-empty majorant block moves to it — the common case;
 2. :func:`lanes_fix` (scalar): the other lanes do what :func:`.raycast.march_pixel` does at a block
-   boundary, on a partial segment (the jittered first, the last: ``exp`` of the interpolated σt)
+   boundary, on a partial segment (the jittered first, the last: ``exp`` of the table's σt)
    and at the end of the ray, until each has a full segment to sample or is done;
 3. :func:`lanes_sample_ea` / :func:`lanes_sample_lit` (vectorised): every active lane samples its
    segment with the scalar functions the per-pixel march uses (:func:`.medium.step_sample`;
@@ -32,7 +32,6 @@ entry (:mod:`pv_ambient.backend`).
 
 from __future__ import annotations
 
-import math
 import os
 
 import numba
@@ -41,10 +40,11 @@ import numpy as np
 from ._jit import driver, prange, scalar
 from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span
-from .medium import FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_sample
+from .medium import (FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_opacity,
+                     step_sample)
 from .models import AMBIENT_SCATTERING, EMISSION_ABSORPTION, SINGLE_SCATTERING
 from .baked import baked_grey, baked_light, baked_rgb, grid_point, point_weight
-from .raycast import STREAM_JITTER, TILE, index_ray, medium_albedo_emission, medium_sigma_color, row_stride
+from .raycast import STREAM_JITTER, TILE, index_ray, row_stride
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
@@ -206,20 +206,25 @@ def lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64):
                 tnext = te + step
                 found = 1
                 break
-            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(MODE_LUT, medium, x, y, z)
-            if sig > 0.0:
-                if model != EMISSION_ABSORPTION:  # as march_pixel: the light, then albedo and emission
+            # a partial segment, as march_pixel: exp of the table's interpolated σt
+            q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
+            a = step_opacity(march.opacity, q0, fq, 0.0, te - t)
+            if a > 0.0:
+                if model == EMISSION_ABSORPTION:
+                    cr = step_column(march.opacity, q0, fq, 1)
+                    cg = step_column(march.opacity, q0, fq, 2)
+                    cb = step_column(march.opacity, q0, fq, 3)
+                else:  # the light, then albedo and emission
                     lr, lg, lb = baked_light(x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, lights, grid)
-                    ar, ag, ab, er, eg, eb = medium_albedo_emission(MODE_LUT, medium, k0, k1, f, x, y, z)
+                    ar, ag, ab, er, eg, eb = step_albedo_emission(march.opacity, q0, fq)
                     cr = ar * lr + (1.0 - ar) * er
                     cg = ag * lg + (1.0 - ag) * eg
                     cb = ab * lb + (1.0 - ab) * eb
-                e = math.exp(-sig * (te - t))
-                w = T * (1.0 - e)
+                w = T * a
                 l64[b64 + RR * LANES + k] += w * cr
                 l64[b64 + RG * LANES + k] += w * cg
                 l64[b64 + RB * LANES + k] += w * cb
-                T *= e
+                T -= w
                 if T < ert:
                     t = t1
                     break

@@ -29,7 +29,7 @@ from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .baked import baked_light
 from .medium import (MODE_GRID, MODE_LUT, full_segment, lut_coords, lut_value, step_albedo_emission, step_column,
-                     step_lookup, step_sample)
+                     step_lookup, step_opacity)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
                      SINGLE_SCATTERING)
 from .phase import phase_eval
@@ -396,26 +396,26 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                     tnext = te + step
                     continue
                 t_block = tex
-            if model == EMISSION_ABSORPTION and mode == MODE_LUT and full_segment(t, te, step) != 0.0:
-                # a full step: the step-corrected table's opacity, no exp (as the packet driver)
-                a, cr, cg, cb = step_sample(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
+            if model == EMISSION_ABSORPTION and mode == MODE_LUT:
+                # a table TF: the step-corrected table (a full step costs no exp), as the packet driver
+                q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
+                a = step_opacity(march.opacity, q0, fq, full_segment(t, te, step), te - t)
                 if a > 0.0:
                     w = T * a
-                    r += w * cr
-                    gg += w * cg
-                    b += w * cb
+                    r += w * step_column(march.opacity, q0, fq, 1)
+                    gg += w * step_column(march.opacity, q0, fq, 2)
+                    b += w * step_column(march.opacity, q0, fq, 3)
                     T -= w
                     if T < ert:
                         break
                 t = te
                 tnext = te + step
                 continue
-            if (baked and (model == SINGLE_SCATTERING or model == AMBIENT_SCATTERING) and mode == MODE_LUT
-                    and full_segment(t, te, step) != 0.0):
-                # a full step of baked single scattering (ambient scattering and diffusion fold into
-                # its bake): the step-corrected table's opacity, as the packet driver
+            if baked and (model == SINGLE_SCATTERING or model == AMBIENT_SCATTERING) and mode == MODE_LUT:
+                # baked single scattering of a table TF (ambient scattering and diffusion fold into its
+                # bake), from the step-corrected table as emission–absorption, as the packet driver
                 q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
-                a = step_column(march.opacity, q0, fq, 0)
+                a = step_opacity(march.opacity, q0, fq, full_segment(t, te, step), te - t)
                 if a > 0.0:
                     lr, lg, lb = baked_light(x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, lights, grid)
                     ar, ag, ab, er, eg, eb = step_albedo_emission(march.opacity, q0, fq)

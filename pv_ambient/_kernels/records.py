@@ -63,7 +63,7 @@ NONE4 = np.zeros((1, 1, 1, 1), np.float32)
 NONE3 = np.zeros((1, 1, 1), np.float32)
 NONE1 = np.zeros(1, np.float64)
 NONE12 = np.zeros((1, 1, 1, 12), np.float32)
-NONE_STEP = np.zeros((2, 10), np.float32)
+NONE_STEP = np.zeros((2, 11), np.float32)
 
 
 def view_of(camera, size, geometry):

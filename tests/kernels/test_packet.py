@@ -142,11 +142,12 @@ def test_step_table_columns():
     table[:, 0] = [0.0, 1.0, 10.0, 1e4]
     table[:, 1:10] = np.arange(36).reshape(4, 9)
     t = step_table(table, 0.05)
-    assert t.dtype == np.float32 and t.shape == (4, 10)
+    assert t.dtype == np.float32 and t.shape == (4, 11)
     assert np.allclose(t[:, 0], 1.0 - np.exp(-table[:, 0].astype(np.float64) * 0.05), rtol=1e-6)
     assert t[0, 0] == 0.0 and t[3, 0] == 1.0  # no underflow or NaN at extreme extinction
     assert np.array_equal(t[:, 1:4], table[:, 7:10])  # colour
     assert np.array_equal(t[:, 4:10], table[:, 1:7])  # albedo, emission
+    assert np.array_equal(t[:, 10], table[:, 0])  # σt, for a partial step
 
 
 _ASM_SCRIPT = r"""
