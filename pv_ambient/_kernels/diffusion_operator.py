@@ -1,11 +1,19 @@
 """The diffusion solve's 7-point operator, its residual and the red–black Gauss–Seidel smoother
-(docs/diffusion.rst §2).
+(docs/diffusion.rst §2, "Solver").
 
-Operator storage (one level): node values ``x`` (nx, ny, nz) float64; face couplings
-``wx`` (nx, ny, nz) between nodes (i, j, k) and (i+1, j, k), zero on the last plane
-(i = nx − 1), likewise ``wy``, ``wz``; the diagonal ``diag`` (nx, ny, nz) = c + Σ adjacent
-couplings, c the absorption and boundary terms. Then ``(A x)_n = diag_n x_n − Σ_faces w_f
-x_neighbour``. Why the zero planes: they make the stencil branch-free (:func:`offdiag`).
+Operator storage (one level): node values ``x`` (nx, ny, nz); face couplings ``wx`` (nx, ny, nz)
+between nodes (i, j, k) and (i+1, j, k), zero on the last plane (i = nx − 1), likewise ``wy``,
+``wz``; ``c`` (nx, ny, nz) the absorption and box-face terms. Then
+
+    (A x)_n = c_n x_n + Σ_faces w_f (x_n − x_neighbour),
+
+the diagonal ``c_n + Σ w_f`` formed in float64 where it is used, never stored. Why this form:
+the couplings are stored in float32 (the solve is bound by memory traffic; ``c`` is float64 on
+the finest level, float32 on the coarse ones: pv_ambient/stages/diffusion/multigrid.py,
+"Precision"), and a stored float32 diagonal would round the absorption ``c`` away wherever it
+is small against the couplings (weakly absorbing media): kept as couplings plus ``c``, the
+operator is the exact symmetric matrix of its stored coefficients, evaluated in float64. Why the
+zero planes: they make the stencil branch-free (:func:`neighbours`).
 
 Reductions write one partial sum per first-axis slab and the caller adds them in order, so
 results do not depend on the thread count. The multigrid transfers are in
@@ -18,8 +26,9 @@ from ._jit import driver, prange, scalar
 
 
 @scalar
-def offdiag(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj):
-    """Σ over the neighbours of node (i, j, k) of coupling × neighbour value, branch-free.
+def neighbours(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj):
+    """(Σ coupling × neighbour value, Σ couplings) over the neighbours of node (i, j, k),
+    branch-free, in float64.
 
     ``im, ip, jm, jp`` are the clamped neighbour indices along i and j, ``fi``/``fj`` 0.0 on the
     low face (i = 0 / j = 0) and 1.0 elsewhere; the coupling arrays are zero on their last
@@ -28,9 +37,15 @@ def offdiag(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj):
     km = max(k - 1, 0)
     kp = min(k + 1, nz - 1)
     fk = 1.0 if k > 0 else 0.0
-    return (fi * wx[im, j, k] * x[im, j, k] + wx[i, j, k] * x[ip, j, k]
-            + fj * wy[i, jm, k] * x[i, jm, k] + wy[i, j, k] * x[i, jp, k]
-            + fk * wz[i, j, km] * x[i, j, km] + wz[i, j, k] * x[i, j, kp])
+    a0 = fi * wx[im, j, k]
+    a1 = 1.0 * wx[i, j, k]
+    a2 = fj * wy[i, jm, k]
+    a3 = 1.0 * wy[i, j, k]
+    a4 = fk * wz[i, j, km]
+    a5 = 1.0 * wz[i, j, k]
+    s = (a0 * x[im, j, k] + a1 * x[ip, j, k] + a2 * x[i, jm, k] + a3 * x[i, jp, k]
+         + a4 * x[i, j, km] + a5 * x[i, j, kp])
+    return s, a0 + a1 + a2 + a3 + a4 + a5
 
 
 @scalar
@@ -39,9 +54,16 @@ def row_index(i, n):
     return max(i - 1, 0), min(i + 1, n - 1), 1.0 if i > 0 else 0.0
 
 
+@scalar
+def apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj):
+    """(A x) at node (i, j, k), float64."""
+    s, d = neighbours(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)
+    return (c[i, j, k] + d) * x[i, j, k] - s
+
+
 @driver
-def make_diag(wx, wy, wz, c, diag):
-    """diag = c + Σ adjacent couplings."""
+def diagonal(wx, wy, wz, c, diag):
+    """diag = c + Σ adjacent couplings (for the dense coarsest level and the Jacobi preconditioner)."""
     nx, ny, nz = c.shape
     for i in prange(nx):
         im, ip, fi = row_index(i, nx)
@@ -55,7 +77,7 @@ def make_diag(wx, wy, wz, c, diag):
 
 
 @driver
-def matvec_dot(wx, wy, wz, diag, x, y, part):
+def matvec_dot(wx, wy, wz, c, x, y, part):
     """y = A x and part[i] = Σ_jk x·y (so x·Ax = Σ part)."""
     nx, ny, nz = x.shape
     for i in prange(nx):
@@ -64,14 +86,14 @@ def matvec_dot(wx, wy, wz, diag, x, y, part):
         for j in range(ny):
             jm, jp, fj = row_index(j, ny)
             for k in range(nz):
-                v = diag[i, j, k] * x[i, j, k] - offdiag(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)
+                v = apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj)
                 y[i, j, k] = v
                 s += v * x[i, j, k]
         part[i] = s
 
 
 @driver
-def residual(wx, wy, wz, diag, x, b, r):
+def residual(wx, wy, wz, c, x, b, r):
     """r = b − A x."""
     nx, ny, nz = x.shape
     for i in prange(nx):
@@ -79,13 +101,12 @@ def residual(wx, wy, wz, diag, x, b, r):
         for j in range(ny):
             jm, jp, fj = row_index(j, ny)
             for k in range(nz):
-                r[i, j, k] = (b[i, j, k] - diag[i, j, k] * x[i, j, k]
-                              + offdiag(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj))
+                r[i, j, k] = b[i, j, k] - apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj)
 
 
 # -- red–black Gauss–Seidel (the multigrid smoother) ---------------------------------------------
 @driver
-def gs_color(wx, wy, wz, diag, x, b, color):
+def gs_color(wx, wy, wz, c, x, b, color):
     """One Gauss–Seidel half-sweep over the nodes with (i + j + k) % 2 == color."""
     nx, ny, nz = x.shape
     for i in prange(nx):
@@ -93,17 +114,24 @@ def gs_color(wx, wy, wz, diag, x, b, color):
         for j in range(ny):
             jm, jp, fj = row_index(j, ny)
             for k in range((color + i + j) & 1, nz, 2):
-                x[i, j, k] = (b[i, j, k] + offdiag(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)) / diag[i, j, k]
+                s, d = neighbours(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)
+                x[i, j, k] = (b[i, j, k] + s) / (c[i, j, k] + d)
 
 
 @driver
-def gs_first(wx, wy, wz, diag, x, b, color):
+def gs_first(wx, wy, wz, c, x, b, color):
     """The first half-sweep from x = 0: x = b/diag on ``color``, 0 elsewhere."""
     nx, ny, nz = x.shape
     for i in prange(nx):
+        im, ip, fi = row_index(i, nx)
         for j in range(ny):
+            jm, jp, fj = row_index(j, ny)
             for k in range(nz):
                 if ((i + j + k) & 1) == color:
-                    x[i, j, k] = b[i, j, k] / diag[i, j, k]
+                    km = max(k - 1, 0)
+                    fk = 1.0 if k > 0 else 0.0
+                    d = (c[i, j, k] + fi * wx[im, j, k] + wx[i, j, k] + fj * wy[i, jm, k] + wy[i, j, k]
+                         + fk * wz[i, j, km] + wz[i, j, k])
+                    x[i, j, k] = b[i, j, k] / d
                 else:
                     x[i, j, k] = 0.0

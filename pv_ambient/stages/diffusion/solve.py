@@ -62,7 +62,7 @@ from .ordinates import DEFAULT_DIRECTIONS, scattering_orders
 from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
 from .sources import direct_irradiance, hat_source, source_in_medium
 from .solution import DiffusionSolution
-from .system import NO_Q1, FVGrid, assemble, check_boundary, node_flux, power_balance, reflects
+from .system import NO_Q1, FVGrid, assemble, check_boundary, flux_and_power, reflects
 
 __all__ = ["flux_limited_D", "mean_chord", "solve_diffusion", "solve_for_light", "solve_in_medium"]
 
@@ -96,11 +96,11 @@ def flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
     return out
 
 
-def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited,
-                   max_outer, outer_tol, d_max, d_min, bar):
-    """One channel: (phi float64, D used, iterations, largest residual, outer passes, whether the
-    flux limiter's passes converged)."""
-    w, c, b = assemble(grid, sigma_a, D0, Q0, Q1)
+def _solve_channel(grid, sig, a, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited, max_outer,
+                   outer_tol, d_max, d_min, bar, gg):
+    """One channel (σt ``sig``, albedo ``a``, D ``D0``): (phi float64, D used, iterations, largest
+    residual, outer passes, whether the flux limiter's passes converged)."""
+    w, c, b = assemble(grid, sig, a, D0, Q0, Q1)
     levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
     # The flux limiter's passes only need each lagged solve well below the change they measure
     # (outer_tol): they run to INNER_REL·outer_tol, and the last one is finished to tol.
@@ -119,13 +119,15 @@ def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, 
         # mixing of depth ANDERSON_DEPTH (the plain lagged iteration contracts by only ≈ 0.8 per
         # pass in optically thin regions). The change that ends the passes is weighted by σs:
         # what the camera pass sees.
+        sigma_s = a * sig
+        sig_p = (1.0 - a) * sig + sigma_s * (1.0 - gg)
         weight = sigma_s if np.any(sigma_s > 0) else np.ones(grid.shape)
         xs, gs = [], []
         x = phi
         outer_ok = False
         for outer in range(1, max_outer + 1):
             D = flux_limited_D(grid, x, sig_p, Q1, d_max, d_min)
-            w, c, b = assemble(grid, sigma_a, D, Q0, Q1)
+            w, c, b = assemble(grid, sig, a, D, Q0, Q1)
             levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
             phi, k, res = pcg(levels, b, x, loose, maxiter, preconditioner, bar)
             its += k
@@ -262,6 +264,8 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
                     preconditioner="multigrid", max_outer=20, outer_tol=1e-2, boundary="marshak"):
     """:func:`solve_diffusion` in an already checked :class:`DiffusionMedium` (σt and albedo are
     not scanned or converted again: once per scene, not once per light); same parameters."""
+    from ..._kernels.diffusion_system import medium_coefficients
+
     t_start = time.perf_counter()
     sig, alb = medium.sigma_t, medium.albedo
     shape = sig.shape
@@ -292,22 +296,26 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
         from tqdm.auto import tqdm
 
         bar = tqdm(desc="diffusion", unit="it")
-    solved = []  # (albedo channel, Q0, Q1, phi) of channels solved so far
+    solved = []  # (albedo channel, Q0, Q1, phi, D) of channels solved so far
+    g_node = np.ndim(gg) == 3
+    g_arr = np.ascontiguousarray(gg, np.float64) if g_node else np.zeros((1, 1, 1))
+    part = np.zeros(shape[0])
     try:
         for ch in range(C):
+            # channel views, never copies (docs/diffusion.rst "Performance")
             a = alb[..., ch] if alb.ndim == 4 else alb
-            s0 = np.asarray(q0[..., ch] if multi else q0, np.float64)
-            s1 = None if q1 is None else np.asarray(q1[..., ch, :] if multi else q1, np.float64)
+            s0 = q0[..., ch] if multi else q0
+            s1 = None if q1 is None else (q1[..., ch, :] if multi else q1)
             if s1 is not None and R is not None:
                 s1 = s1 @ R  # world → index-axis components
-            sigma_a = (1.0 - a) * sig
-            sig_p = sigma_a + a * sig * (1.0 - gg)
-            D0 = 1.0 / (3.0 * np.maximum(sig_p, sigma_floor))
-            if not np.any(sigma_a > 0) and not any(
+            D0 = np.empty(shape)
+            medium_coefficients(sig, a, g_arr, g_node, 0.0 if g_node else float(gg), float(sigma_floor), D0, part)
+            if not part.max() > 0.0 and not any(
                     shape[ax] > 1 and not reflects(grid, ax, sd) for ax in range(3) for sd in (-1, 1)):
                 raise ValueError("the diffusion problem is singular: no absorption (albedo 1 everywhere) and no "
                                  "face where light can leave (every face reflects or every axis has one node)")
             phi = D = None
+            fresh = False
             # reuse an earlier channel with equal albedo and proportional sources
             for a_prev, s0_prev, s1_prev, phi_prev, D_prev in solved:
                 k = _proportional(a, s0, s1, a_prev, s0_prev, s1_prev)
@@ -316,16 +324,18 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
                     break
             if phi is None:
                 x0c = None if x0 is None else (x0[..., ch] if multi else x0)
-                if x0c is None and flux_limited and solved and WARM_CHANNELS:
-                    # the previous channel's limited solution, scaled by the source power
+                if x0c is None and solved and WARM_CHANNELS:
+                    # the previous channel's solution, scaled by the source power (pcg then
+                    # rescales any start by its energy-optimal factor)
                     a_p, s0_p, _, phi_p, _ = solved[-1]
-                    p_prev, p_cur = float(np.sum(s0_p)), float(np.sum(s0))
+                    p_prev, p_cur = float(np.sum(s0_p, dtype=np.float64)), float(np.sum(s0, dtype=np.float64))
                     if p_prev > 0 and p_cur > 0:
                         x0c = phi_p * (p_cur / p_prev)
                 with one_thread_if(sig.size <= SERIAL_NODES):
                     phi, D, its, res, outer, outer_ok = _solve_channel(
-                        grid, sig_p, sigma_a, a * sig, D0, s0, s1, x0c, tol, maxiter, preconditioner, flux_limited,
-                        max_outer, outer_tol, d_max, d_min, bar)
+                        grid, sig, a, D0, s0, s1, x0c, tol, maxiter, preconditioner, flux_limited, max_outer,
+                        outer_tol, d_max, d_min, bar, gg)
+                fresh = True
                 conv = res <= tol and outer_ok
                 total_its += its
                 worst = max(worst, res)
@@ -338,18 +348,14 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
                             f"max_outer={max_outer} passes")
                     warnings.warn(f"diffusion solve of channel {ch} did not converge: {what}, {its} iterations in "
                                   f"all; raise maxiter/max_outer or loosen tol/outer_tol", UserWarning, stacklevel=2)
-                solved.append((a, s0, s1, phi, D))
-            F = node_flux(grid, phi, D, s1)
-            if R is not None:
-                F = F @ R.T  # index-axis → world components
-            src, absorbed, escaped = power_balance(grid, phi, sigma_a, D, s0, s1)
+            phi_c = phi_out[..., ch] if multi else phi_out
+            phi_c[...] = phi
+            del phi
+            if fresh:
+                solved.append((a, s0, s1, phi_c, D))
+            F_c = F_out[..., ch, :] if multi else F_out
+            src, absorbed, escaped = flux_and_power(grid, phi_c, sig, a, D, s0, s1, R, F_c)
             power["source"][ch], power["absorbed"][ch], power["escaped"][ch] = src, absorbed, escaped
-            if multi:
-                phi_out[..., ch] = phi
-                F_out[..., ch, :] = F
-            else:
-                phi_out[...] = phi
-                F_out[...] = F
     finally:
         if bar is not None:
             bar.close()
