@@ -43,21 +43,23 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parent))
 
 #: (module, function names) wrapped by the profile, by phase; names a module lacks are skipped.
-SOLVE_FUNCS = {"pv_ambient.stages.diffusion.solve": ("assemble", "hierarchy", "node_flux", "power_balance")}
+SOLVE_FUNCS = {"pv_ambient.stages.diffusion.solve": ("assemble", "hierarchy", "node_flux", "power_balance",
+                                                     "flux_and_power")}
 KERNEL_MODULES = ("pv_ambient._kernels.diffusion_operator", "pv_ambient._kernels.diffusion_multigrid",
                   "pv_ambient._kernels.diffusion_cg", "pv_ambient._kernels.diffusion_system")
 #: Kernels of the conjugate-gradient iteration itself (the rest of the V-cycle modules' kernels
 #: are the preconditioner's).
-CG_KERNELS = {"matvec_dot", "cg_step", "cg_direction", "dot_parts", "jacobi", "residual", "cg_start"}
+CG_KERNELS = {"matvec_dot", "cg_step", "cg_direction", "dot_parts", "jacobi", "residual", "scaled_start"}
 #: Kernels counted in the phase of the function that calls them, not on their own.
-INNER = {"assemble_faces", "make_diag", "coarsen", "limiter_coefficients", "boundary_terms", "node_flux_kernel",
-         "power_kernel", "medium_coefficients", "face_flux"}
+INNER = {"assemble_faces", "make_diag", "diagonal", "coarsen", "limiter_coefficients", "node_flux_power"}
+#: Kernels with a phase of their own.
+KERNEL_PHASE = {"medium_coefficients": "medium coefficients"}
 #: Phase order of the table.
 #: The phase function's mean cosine of speed.py's frames (the renderer's default, isotropic).
 G = 0.0
 PHASES = ["light sweep (τ)", "irradiance", "first-collision source", "medium coefficients", "assemble",
-          "hierarchy", "V-cycle, finest level", "V-cycle, coarser levels", "CG vector kernels", "node flux",
-          "power balance", "other (solve's own NumPy, copies)", "solve total"]
+          "hierarchy", "V-cycle, finest level", "V-cycle, coarser levels", "CG vector kernels",
+          "node flux + power balance", "other (solve's own NumPy, copies)", "solve total"]
 
 
 def _timer(acc, name, fn, phase_of=None):
@@ -94,6 +96,8 @@ def profile_child(n, repeats):
     def level_phase(name):
         def phase_of(a):
             size = next((x.size for x in a if isinstance(x, np.ndarray) and x.ndim == 3), 0)
+            if name in KERNEL_PHASE:
+                return KERNEL_PHASE[name]
             if name in CG_KERNELS:
                 return "CG vector kernels"
             return "V-cycle, finest level" if size >= fine else "V-cycle, coarser levels"
@@ -109,11 +113,11 @@ def profile_child(n, repeats):
                 continue
             if not getattr(mod.__dict__.get(name), "__wrapped_timer__", False):
                 setattr(mod, name, _timer(acc, name, obj, level_phase(name)))
-    labels = {"assemble": "assemble", "hierarchy": "hierarchy", "node_flux": "node flux",
-              "power_balance": "power balance", "medium_coefficients": "medium coefficients"}
+    labels = {"assemble": "assemble", "hierarchy": "hierarchy", "node_flux": "node flux + power balance",
+              "power_balance": "node flux + power balance", "flux_and_power": "node flux + power balance"}
     for mod_name, names in SOLVE_FUNCS.items():
         mod = importlib.import_module(mod_name)
-        for name in names + ("medium_coefficients",):
+        for name in names:
             if hasattr(mod, name):
                 setattr(mod, name, _timer(acc, labels[name], getattr(mod, name)))
     runs = []

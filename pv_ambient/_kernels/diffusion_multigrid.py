@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import driver, prange
-from .diffusion_operator import apply_at, row_index
+from .diffusion_operator import RESIDUAL, row_apply, row_index
 
 
 @driver
@@ -27,8 +27,7 @@ def residual_restrict(wx, wy, wz, c, x, b, fx, fy, fz, rc):
             for j in range(ny):
                 jm, jp, fj = row_index(j, ny)
                 cj = j // fy
-                for k in range(nz):
-                    row[k] = b[i, j, k] - apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj)
+                row_apply(wx, wy, wz, c, x, b, i, j, im, ip, jm, jp, fi, fj, RESIDUAL, row)
                 for ck in range(mz):
                     s = 0.0
                     for k in range(ck * fz, min(ck * fz + fz, nz)):

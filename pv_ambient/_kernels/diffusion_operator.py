@@ -22,6 +22,8 @@ results do not depend on the thread count. The multigrid transfers are in
 
 from __future__ import annotations
 
+import numpy as np
+
 from ._jit import driver, prange, scalar
 
 
@@ -54,11 +56,59 @@ def row_index(i, n):
     return max(i - 1, 0), min(i + 1, n - 1), 1.0 if i > 0 else 0.0
 
 
-@scalar
-def apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj):
-    """(A x) at node (i, j, k), float64."""
-    s, d = neighbours(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)
-    return (c[i, j, k] + d) * x[i, j, k] - s
+#: What :func:`row_apply` writes per node: the Gauss–Seidel value, A x, or the residual b − A x.
+GS, AX, RESIDUAL = 0, 1, 2
+
+
+@scalar(inline=True)
+def row_apply(wx, wy, wz, c, x, b, i, j, im, ip, jm, jp, fi, fj, mode, out):
+    """Row (i, j, ·) of ``mode``: ``(b + Σ w x_nb)/(c + Σ w)`` (GS), ``A x`` (AX) or ``b − A x``
+    (RESIDUAL), into ``out`` (length nz). The two end nodes take the clamped form
+    (:func:`neighbours`); the nodes between them one branch-free loop per mode, which the
+    compiler vectorises (why rows: a node-by-node red–black loop strides by 2 and does not; one
+    output array, so that the loop needs few run-time alias checks)."""
+    nz = x.shape[2]
+    for k in (0, nz - 1):
+        sk, dk = neighbours(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)
+        if mode == GS:
+            out[k] = (b[i, j, k] + sk) / (c[i, j, k] + dk)
+        elif mode == AX:
+            out[k] = (c[i, j, k] + dk) * x[i, j, k] - sk
+        else:
+            out[k] = b[i, j, k] - (c[i, j, k] + dk) * x[i, j, k] + sk
+    if mode == GS:
+        for k in range(1, nz - 1):
+            a0 = fi * wx[im, j, k]
+            a1 = 1.0 * wx[i, j, k]
+            a2 = fj * wy[i, jm, k]
+            a3 = 1.0 * wy[i, j, k]
+            a4 = 1.0 * wz[i, j, k - 1]
+            a5 = 1.0 * wz[i, j, k]
+            sk = (a0 * x[im, j, k] + a1 * x[ip, j, k] + a2 * x[i, jm, k] + a3 * x[i, jp, k]
+                  + a4 * x[i, j, k - 1] + a5 * x[i, j, k + 1])
+            out[k] = (b[i, j, k] + sk) / (c[i, j, k] + a0 + a1 + a2 + a3 + a4 + a5)
+    elif mode == AX:
+        for k in range(1, nz - 1):
+            a0 = fi * wx[im, j, k]
+            a1 = 1.0 * wx[i, j, k]
+            a2 = fj * wy[i, jm, k]
+            a3 = 1.0 * wy[i, j, k]
+            a4 = 1.0 * wz[i, j, k - 1]
+            a5 = 1.0 * wz[i, j, k]
+            sk = (a0 * x[im, j, k] + a1 * x[ip, j, k] + a2 * x[i, jm, k] + a3 * x[i, jp, k]
+                  + a4 * x[i, j, k - 1] + a5 * x[i, j, k + 1])
+            out[k] = (c[i, j, k] + a0 + a1 + a2 + a3 + a4 + a5) * x[i, j, k] - sk
+    else:
+        for k in range(1, nz - 1):
+            a0 = fi * wx[im, j, k]
+            a1 = 1.0 * wx[i, j, k]
+            a2 = fj * wy[i, jm, k]
+            a3 = 1.0 * wy[i, j, k]
+            a4 = 1.0 * wz[i, j, k - 1]
+            a5 = 1.0 * wz[i, j, k]
+            sk = (a0 * x[im, j, k] + a1 * x[ip, j, k] + a2 * x[i, jm, k] + a3 * x[i, jp, k]
+                  + a4 * x[i, j, k - 1] + a5 * x[i, j, k + 1])
+            out[k] = b[i, j, k] - (c[i, j, k] + a0 + a1 + a2 + a3 + a4 + a5) * x[i, j, k] + sk
 
 
 @driver
@@ -82,26 +132,16 @@ def matvec_dot(wx, wy, wz, c, x, y, part):
     nx, ny, nz = x.shape
     for i in prange(nx):
         im, ip, fi = row_index(i, nx)
+        row = np.empty(nz)
         s = 0.0
         for j in range(ny):
             jm, jp, fj = row_index(j, ny)
+            row_apply(wx, wy, wz, c, x, x, i, j, im, ip, jm, jp, fi, fj, AX, row)
             for k in range(nz):
-                v = apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj)
+                v = row[k]
                 y[i, j, k] = v
                 s += v * x[i, j, k]
         part[i] = s
-
-
-@driver
-def residual(wx, wy, wz, c, x, b, r):
-    """r = b − A x."""
-    nx, ny, nz = x.shape
-    for i in prange(nx):
-        im, ip, fi = row_index(i, nx)
-        for j in range(ny):
-            jm, jp, fj = row_index(j, ny)
-            for k in range(nz):
-                r[i, j, k] = b[i, j, k] - apply_at(wx, wy, wz, c, x, i, j, k, im, ip, jm, jp, fi, fj)
 
 
 # -- red–black Gauss–Seidel (the multigrid smoother) ---------------------------------------------
@@ -111,11 +151,14 @@ def gs_color(wx, wy, wz, c, x, b, color):
     nx, ny, nz = x.shape
     for i in prange(nx):
         im, ip, fi = row_index(i, nx)
+        row = np.empty(nz)
         for j in range(ny):
             jm, jp, fj = row_index(j, ny)
+            # the whole row (vectorised), then the update of this colour's nodes: their
+            # neighbours along the row are of the other colour, which this half-sweep leaves as is
+            row_apply(wx, wy, wz, c, x, b, i, j, im, ip, jm, jp, fi, fj, GS, row)
             for k in range((color + i + j) & 1, nz, 2):
-                s, d = neighbours(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj)
-                x[i, j, k] = (b[i, j, k] + s) / (c[i, j, k] + d)
+                x[i, j, k] = row[k]
 
 
 @driver

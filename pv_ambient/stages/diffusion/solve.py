@@ -396,7 +396,7 @@ def _checked_sources(shape, alb, Q0, Q1, x0, direction):
     else:
         R = None
     if x0 is not None:
-        x0 = check_array(x0, "x0", ndim=(3, 4))
+        x0 = check_array(x0, "x0", ndim=(3, 4), dtype="float")  # float32 stays: pcg converts per channel
         if x0.shape != q0.shape:
             raise ValueError(f"x0 must have the shape of phi {q0.shape}, got {x0.shape}")
     return q0, q1, x0, R, multi, C, qshape
