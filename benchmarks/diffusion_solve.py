@@ -20,7 +20,11 @@ light at the centre; its :class:`speed.Frames` builds it). Two tables, each from
 Usage (from the repository root)::
 
     python benchmarks/diffusion_solve.py [--n 256] [--size 512] [--repeats 3] [--threads 1,2] [--frames]
-        [--out benchmarks/results/diffusion_profile.txt]
+        [--compare OTHER_CHECKOUT] [--skip-profile] [--out benchmarks/results/diffusion_profile.txt]
+
+``--compare``: the largest difference of one light's φ (``solve_for_light`` as the stage calls
+it) between another checkout of the project (e.g. ``git worktree add /tmp/old <commit>``) and
+this one.
 """
 
 from __future__ import annotations
@@ -127,7 +131,10 @@ def profile_child(n, repeats):
         E, om = direct_irradiance(fr.light, st.geometry, tau, lgrid)
         t_e = time.perf_counter() - t
         t = time.perf_counter()
-        q0, q1 = source_in_medium(medium, G, E, om)
+        try:  # as the stage calls it (Q1 None where g = 0), where the code has that option
+            q0, q1 = source_in_medium(medium, G, E, om, first_moment=False)
+        except TypeError:
+            q0, q1 = source_in_medium(medium, G, E, om)
         t_q = time.perf_counter() - t
         del E, om
         t = time.perf_counter()
@@ -187,10 +194,51 @@ def frames_child(n, size, repeats):
     return out
 
 
-def run_child(args, threads, what):
+def phi_child(n, path):
+    """One light's solve as the stage runs it (``solve_for_light``); φ saved to ``path``."""
+    import speed
+    from pv_ambient.stages.diffusion import DiffusionMedium, solve_for_light
+
+    fr = speed.Frames(n, (64, 64))
+    st = fr.renderer.stages
+    lgrid = st.light_grid(None)
+    medium = DiffusionMedium.from_arrays(st.optics.sigma_grid(), st.optics.albedo_grid())
+    sol = solve_for_light(fr.light, G, medium=medium, geometry=st.geometry, tau=st.optical_depth(fr.light, lgrid),
+                          light_grid=lgrid)
+    np.save(path, sol.phi)
+    import pv_ambient
+
+    return dict(iterations=sol.iterations, residual=sol.residual, package=str(Path(pv_ambient.__file__).parent))
+
+
+def compare_phi(args):
+    """Lines: the largest difference of φ between ``--compare`` (another checkout's pv_ambient)
+    and this one, relative to the largest φ and node by node where φ > 10⁻³ of it."""
+    import tempfile
+
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = {}
+        for label, root in (("reference", args.compare), ("this", str(Path(__file__).parent.parent))):
+            paths[label] = os.path.join(tmp, f"{label}.npy")
+            info = run_child(args, 2, "phi", pythonpath=root, extra=["--phi-path", paths[label]])
+            out.append(f"  {label} ({info['package']}): {info['iterations']} CG iterations, residual "
+                       f"{info['residual']:.2e}")
+        a, b = np.load(paths["reference"]), np.load(paths["this"])
+    d = np.abs(b - a)
+    top = np.abs(a).max(axis=(0, 1, 2))
+    lit = a > 1e-3 * top
+    out.append(f"  max |Δφ| / max φ per channel: {', '.join(f'{v:.2e}' for v in d.max(axis=(0, 1, 2)) / top)}; "
+               f"max |Δφ|/φ where φ > 1e-3 max φ: {float((d[lit] / a[lit]).max()):.2e}")
+    return out
+
+
+def run_child(args, threads, what, pythonpath=None, extra=()):
     cmd = [sys.executable, __file__, "--n", str(args.n), "--size", str(args.size), "--repeats", str(args.repeats),
-           f"--child-{what}"]
+           f"--child-{what}", *extra]
     env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
+    if pythonpath:
+        env["PYTHONPATH"] = pythonpath
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError(f"child ({what}, {threads} threads) failed:\n{proc.stderr[-3000:]}")
@@ -232,11 +280,18 @@ def main(argv=None):
     ap.add_argument("--threads", default="1,2")
     ap.add_argument("--frames", action="store_true", help="also the first-frame and relight stage times")
     ap.add_argument("--out", default=None, help="write the tables there too")
+    ap.add_argument("--compare", help="another checkout's root: print the largest difference of φ against it")
+    ap.add_argument("--skip-profile", action="store_true", help="no profile table")
     ap.add_argument("--child-profile", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--child-phi", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--phi-path", help=argparse.SUPPRESS)
     ap.add_argument("--child-frames", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child_profile:
         print(json.dumps(profile_child(args.n, args.repeats)))
+        return
+    if args.child_phi:
+        print(json.dumps(phi_child(args.n, args.phi_path)))
         return
     if args.child_frames:
         print(json.dumps(frames_child(args.n, args.size, args.repeats)))
@@ -247,12 +302,16 @@ def main(argv=None):
     lines = ["$ python " + " ".join(sys.argv), "",
              f"pv_ambient from {Path(pv_ambient.__file__).parent}; supernova_centre {args.n}³ (speed.py's scene), "
              f"{os.cpu_count()} cores; medians of {args.repeats} after a compiling run", "",
-             "one light's diffusion solve, by phase (s):"]
-    runs = {t: run_child(args, t, "profile") for t in counts}
-    lines += profile_table(runs, counts)
+             ]
+    if not args.skip_profile:
+        runs = {t: run_child(args, t, "profile") for t in counts}
+        lines += ["one light's diffusion solve, by phase (s):"] + profile_table(runs, counts)
     if args.frames:
         runs = {t: run_child(args, t, "frames") for t in counts}
         lines += ["", f"diffusion frames at {args.size}² (s):"] + frames_table(runs, counts)
+    if args.compare:
+        lines += ["", "φ of one light's solve (solve_for_light, 2 threads) against another checkout:"]
+        lines += compare_phi(args)
     print("\n".join(lines))
     if args.out:
         Path(args.out).write_text("\n".join(lines) + "\n")

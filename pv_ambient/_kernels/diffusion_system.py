@@ -161,7 +161,7 @@ def assemble_faces(D, sig, alb, q0, q1, use_q1, wdx, wdy, wdz, hx, hy, hz, wx, w
                 b[i, j, k] = acc
 
 
-@scalar
+@scalar(inline=True)
 def face_flux(phi, D, q, use_q1, a, i0, j0, k0, i1, j1, k1, h):
     """F·n across the face from node 0 to node 1 (n from 0 to 1, along axis ``a``): ``−D_f (φ1 −
     φ0)/h + 3 D_f (q0 + q1)/2``, D_f the harmonic mean (:func:`face_terms`), q the axis's Q1
@@ -218,14 +218,21 @@ def node_flux_power(phi, D, q1, use_q1, sig, alb, q0, wdx, wdy, wdz, hx, hy, hz,
     for i in prange(nx):
         src = 0.0
         ab = 0.0
+        inner_i = 0 < i < nx - 1
         for j in range(ny):
+            inner_ij = inner_i and 0 < j < ny - 1
             for k in range(nz):
-                fx = node_component(phi, D, q1, use_q1, i, j, k, 0, nx, hx, cell, outs[0, 0],
-                                    outs[0, 1])
-                fy = node_component(phi, D, q1, use_q1, i, j, k, 1, ny, hy, cell, outs[1, 0],
-                                    outs[1, 1])
-                fz = node_component(phi, D, q1, use_q1, i, j, k, 2, nz, hz, cell, outs[2, 0],
-                                    outs[2, 1])
+                if inner_ij and 0 < k < nz - 1:  # inside the box: the mean of both faces per axis
+                    fx = 0.5 * (face_flux(phi, D, q1, use_q1, 0, i - 1, j, k, i, j, k, hx)
+                                + face_flux(phi, D, q1, use_q1, 0, i, j, k, i + 1, j, k, hx))
+                    fy = 0.5 * (face_flux(phi, D, q1, use_q1, 1, i, j - 1, k, i, j, k, hy)
+                                + face_flux(phi, D, q1, use_q1, 1, i, j, k, i, j + 1, k, hy))
+                    fz = 0.5 * (face_flux(phi, D, q1, use_q1, 2, i, j, k - 1, i, j, k, hz)
+                                + face_flux(phi, D, q1, use_q1, 2, i, j, k, i, j, k + 1, hz))
+                else:
+                    fx = node_component(phi, D, q1, use_q1, i, j, k, 0, nx, hx, cell, outs[0, 0], outs[0, 1])
+                    fy = node_component(phi, D, q1, use_q1, i, j, k, 1, ny, hy, cell, outs[1, 0], outs[1, 1])
+                    fz = node_component(phi, D, q1, use_q1, i, j, k, 2, nz, hz, cell, outs[2, 0], outs[2, 1])
                 if rotate:
                     F[i, j, k, 0] = R[0, 0] * fx + R[0, 1] * fy + R[0, 2] * fz
                     F[i, j, k, 1] = R[1, 0] * fx + R[1, 1] * fy + R[1, 2] * fz

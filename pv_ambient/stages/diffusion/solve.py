@@ -302,7 +302,7 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
     part = np.zeros(shape[0])
     try:
         for ch in range(C):
-            # channel views, never copies (docs/diffusion.rst "Performance")
+            # channel views, never copies (docs/diffusion.rst, "Precision and memory traffic")
             a = alb[..., ch] if alb.ndim == 4 else alb
             s0 = q0[..., ch] if multi else q0
             s1 = None if q1 is None else (q1[..., ch, :] if multi else q1)
@@ -490,8 +490,14 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
             first.append(hat_source(lt, geometry, tau_l, light_grid, medium if optics is None else optics, medium))
         else:
             E, omega = direct_irradiance(lt, geometry, tau_l, light_grid)
-            q0, q1 = source_in_medium(medium, g, E, omega)
-            Q0, Q1 = (q0, q1) if Q0 is None else (Q0 + q0, Q1 + q1)
+            q0, q1 = source_in_medium(medium, g, E, omega, first_moment=False)  # Q1 None where g = 0
+            del E, omega
+            if Q0 is None:
+                Q0, Q1 = q0, q1
+            else:
+                Q0 += q0
+                if q1 is not None:
+                    Q1 += q1
     if not sweep_orders:
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
