@@ -245,30 +245,44 @@ def run_child(args, threads, what, pythonpath=None, extra=()):
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def profile_table(runs, counts):
-    lines = [f"  {'phase':38s}" + "".join(f" {f'{t} thr s':>9}" for t in counts)
-             + "".join(f" {f'1→{t} ×':>7}" for t in counts[1:])]
-    for ph in PHASES:
-        vals = [runs[t].get(ph, 0.0) for t in counts]
-        row = f"  {ph:38s}" + "".join(f" {v:>9.3f}" for v in vals)
-        row += "".join(f" {vals[0] / v:>7.2f}" if v > 0 else f" {'':>7}" for v in vals[1:])
-        lines.append(row)
-    lines.append(f"  CG iterations (all channels) {int(runs[counts[0]]['iterations'])}, linear solves "
-                 f"{int(runs[counts[0]]['solves'])}, final relative residual {runs[counts[0]]['residual']:.2e}")
+def _header(sets, counts, first):
+    cols = "".join(f" {f'{label} {t}t s':>{W}}" for label, _ in sets for t in counts)
+    ups = "".join(f" {f'{label} 1→{t}':>{W}}" for label, _ in sets for t in counts[1:])
+    return f"  {first:38s}{cols}{ups}"
+
+
+#: Column width of the tables.
+W = 12
+
+
+def _row(name, sets, counts, key):
+    vals = [[runs[t].get(key, 0.0) for t in counts] for _, runs in sets]
+    row = f"  {name:38s}" + "".join(f" {v:>{W}.3f}" for vs in vals for v in vs)
+    row += "".join((f" {vs[0] / v:>{W}.2f}" if v > 0 else f" {'':>{W}}") for vs in vals for v in vs[1:])
+    return row
+
+
+def profile_table(sets, counts):
+    """``sets``: (label, {threads: phase seconds}) per checkout."""
+    lines = [_header(sets, counts, "phase")]
+    lines += [_row(ph, sets, counts, ph) for ph in PHASES]
+    for label, runs in sets:
+        r = runs[counts[0]]
+        lines.append(f"  {label}: CG iterations (all channels) {int(r['iterations'])}, linear solves "
+                     f"{int(r['solves'])}, final relative residual {r['residual']:.2e}")
     return lines
 
 
-def frames_table(runs, counts):
-    lines = [f"  {'frame':34s}" + "".join(f" {f'{t} thr s':>9}" for t in counts)
-             + "".join(f" {f'1→{t} ×':>7}" for t in counts[1:])]
+def frames_table(sets, counts):
+    lines = [_header(sets, counts, "frame")]
     for key, label in (("first", "first frame, diffusion"), ("first stage", "  stage (frame − camera pass)"),
                        ("relight", "relight, diffusion"), ("relight stage", "  stage (frame − camera pass)"),
                        ("camera", "camera pass (camera move)")):
-        vals = [runs[t][key] for t in counts]
-        lines.append(f"  {label:34s}" + "".join(f" {v:>9.3f}" for v in vals)
-                     + "".join(f" {vals[0] / v:>7.2f}" for v in vals[1:]))
-    lines.append(f"  CG iterations: first frame {runs[counts[0]]['first_iterations']}, relights "
-                 f"{runs[counts[0]]['relight_iterations']}")
+        lines.append(_row(label, sets, counts, key))
+    for label, runs in sets:
+        r = runs[counts[0]]
+        lines.append(f"  {label}: CG iterations, first frame {r['first_iterations']}, relights "
+                     f"{r['relight_iterations']}")
     return lines
 
 
@@ -301,17 +315,23 @@ def main(argv=None):
     counts = sorted({int(t) for t in args.threads.split(",")})
     lines = ["$ python " + " ".join(sys.argv), "",
              f"pv_ambient from {Path(pv_ambient.__file__).parent}; supernova_centre {args.n}³ (speed.py's scene), "
-             f"{os.cpu_count()} cores; medians of {args.repeats} after a compiling run", "",
-             ]
+             f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the start; medians of "
+             f"{args.repeats} after a compiling run", ""]
+    here = str(Path(__file__).parent.parent)
+    roots = ([("before", args.compare)] if args.compare else []) + [("after" if args.compare else "this", here)]
+    if args.compare:
+        lines += [f"before: {args.compare}; after: {here}", ""]
     if not args.skip_profile:
-        runs = {t: run_child(args, t, "profile") for t in counts}
-        lines += ["one light's diffusion solve, by phase (s):"] + profile_table(runs, counts)
+        sets = [(label, {t: run_child(args, t, "profile", pythonpath=root) for t in counts}) for label, root in roots]
+        lines += ["one light's diffusion solve, by phase (s; 1→t: the speed-up):"] + profile_table(sets, counts)
+        print("\n".join(lines), flush=True)
     if args.frames:
-        runs = {t: run_child(args, t, "frames") for t in counts}
-        lines += ["", f"diffusion frames at {args.size}² (s):"] + frames_table(runs, counts)
+        sets = [(label, {t: run_child(args, t, "frames", pythonpath=root) for t in counts}) for label, root in roots]
+        lines += ["", f"diffusion frames at {args.size}² (s):"] + frames_table(sets, counts)
     if args.compare:
         lines += ["", "φ of one light's solve (solve_for_light, 2 threads) against another checkout:"]
         lines += compare_phi(args)
+    lines.append(f"load average at the end {os.getloadavg()[0]:.2f}")
     print("\n".join(lines))
     if args.out:
         Path(args.out).write_text("\n".join(lines) + "\n")

@@ -178,3 +178,23 @@ def gs_first(wx, wy, wz, c, x, b, color):
                     x[i, j, k] = b[i, j, k] / d
                 else:
                     x[i, j, k] = 0.0
+
+
+@driver
+def gs_color_dot(wx, wy, wz, c, x, b, color, part):
+    """:func:`gs_color`, and part[i] = Σ_jk b·x after it: the V-cycle's last half-sweep on the
+    finest level, fused with the CG's ``r·z`` (b = r, x = z) — each row is final once its
+    colour is written, so the dot product needs no pass of its own."""
+    nx, ny, nz = x.shape
+    for i in prange(nx):
+        im, ip, fi = row_index(i, nx)
+        row = np.empty(nz)
+        s = 0.0
+        for j in range(ny):
+            jm, jp, fj = row_index(j, ny)
+            row_apply(wx, wy, wz, c, x, b, i, j, im, ip, jm, jp, fi, fj, GS, row)
+            for k in range((color + i + j) & 1, nz, 2):
+                x[i, j, k] = row[k]
+            for k in range(nz):
+                s += b[i, j, k] * x[i, j, k]
+        part[i] = s

@@ -132,7 +132,7 @@ def assemble_faces(D, sig, alb, q0, q1, use_q1, wdx, wdy, wdz, hx, hy, hz, wx, w
                     acc -= f
                 else:
                     wx[i, j, k] = 0.0
-                if i > 0:
+                if use_q1 and i > 0:  # the low face's flow (its coupling is the neighbour's)
                     _, f = face_terms(D[i - 1, j, k], d0, q1[i - 1, j, k, 0] if use_q1 else 0.0,
                                       q1[i, j, k, 0] if use_q1 else 0.0, ax, hx, use_q1)
                     acc += f
@@ -143,7 +143,7 @@ def assemble_faces(D, sig, alb, q0, q1, use_q1, wdx, wdy, wdz, hx, hy, hz, wx, w
                     acc -= f
                 else:
                     wy[i, j, k] = 0.0
-                if j > 0:
+                if use_q1 and j > 0:  # the low face's flow (its coupling is the neighbour's)
                     _, f = face_terms(D[i, j - 1, k], d0, q1[i, j - 1, k, 1] if use_q1 else 0.0,
                                       q1[i, j, k, 1] if use_q1 else 0.0, ay, hy, use_q1)
                     acc += f
@@ -154,7 +154,7 @@ def assemble_faces(D, sig, alb, q0, q1, use_q1, wdx, wdy, wdz, hx, hy, hz, wx, w
                     acc -= f
                 else:
                     wz[i, j, k] = 0.0
-                if k > 0:
+                if use_q1 and k > 0:  # the low face's flow (its coupling is the neighbour's)
                     _, f = face_terms(D[i, j, k - 1], d0, q1[i, j, k - 1, 2] if use_q1 else 0.0,
                                       q1[i, j, k, 2] if use_q1 else 0.0, az, hz, use_q1)
                     acc += f

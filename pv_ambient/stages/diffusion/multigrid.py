@@ -126,8 +126,9 @@ def one_thread_if(flag):
         numba.set_num_threads(nt)
 
 
-def _vcycle(levels, l):
-    """levels[l].x ≈ A_l⁻¹ levels[l].b by one symmetric V-cycle."""
+def _vcycle(levels, l, part=None):
+    """levels[l].x ≈ A_l⁻¹ levels[l].b by one symmetric V-cycle; with ``part`` (finest level),
+    also part[i] = Σ_jk b·x (the CG's r·z) from the last half-sweep."""
     from ..._kernels.diffusion_multigrid import prolong_add, residual_restrict
     from ..._kernels.diffusion_operator import gs_color, gs_first
 
@@ -137,10 +138,12 @@ def _vcycle(levels, l):
         return
     # small levels run on one thread: a parallel launch costs more than the work
     with one_thread_if(lv.serial and l > 0 and not levels[l - 1].serial):
-        _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict)
+        _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict, part)
 
 
-def _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict):
+def _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict, part=None):
+    from ..._kernels.diffusion_operator import gs_color_dot
+
     lv = levels[l]
     ops = lv.ops
     # pre-smooth red → black, coarse-grid correction, post-smooth black → red (symmetric)
@@ -151,7 +154,10 @@ def _vcycle_body(levels, l, gs_color, gs_first, prolong_add, residual_restrict):
     _vcycle(levels, l + 1)
     prolong_add(nxt.x, *lv.f, lv.x)
     gs_color(*ops, lv.x, lv.b, 1)
-    gs_color(*ops, lv.x, lv.b, 0)
+    if part is None:
+        gs_color(*ops, lv.x, lv.b, 0)
+    else:
+        gs_color_dot(*ops, lv.x, lv.b, 0, part)
 
 
 def pcg(levels, b, x0, tol, maxiter, preconditioner, bar=None):
@@ -199,8 +205,11 @@ def pcg(levels, b, x0, tol, maxiter, preconditioner, bar=None):
 
     def precondition():
         if preconditioner == "multigrid":
-            _vcycle(levels, 0)
-            dot_parts(r, z, part)
+            if len(levels) > 1:
+                _vcycle(levels, 0, part)  # r·z from the V-cycle's last half-sweep
+            else:
+                _vcycle(levels, 0)
+                dot_parts(r, z, part)
         else:
             jacobi(*ops, r, z, part)
         return float(part.sum())

@@ -325,12 +325,14 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
             if phi is None:
                 x0c = None if x0 is None else (x0[..., ch] if multi else x0)
                 if x0c is None and solved and WARM_CHANNELS:
-                    # the previous channel's solution, scaled by the source power (pcg then
-                    # rescales any start by its energy-optimal factor)
+                    # the previous channel's solution: pcg scales a start by its energy-optimal
+                    # factor; the flux limiter's passes start from it as is, so scaled by the
+                    # source power there
                     a_p, s0_p, _, phi_p, _ = solved[-1]
-                    p_prev, p_cur = float(np.sum(s0_p, dtype=np.float64)), float(np.sum(s0, dtype=np.float64))
-                    if p_prev > 0 and p_cur > 0:
-                        x0c = phi_p * (p_cur / p_prev)
+                    x0c = phi_p
+                    if flux_limited:
+                        p_prev, p_cur = float(np.sum(s0_p, dtype=np.float64)), float(np.sum(s0, dtype=np.float64))
+                        x0c = phi_p * (p_cur / p_prev) if p_prev > 0 and p_cur > 0 else None
                 with one_thread_if(sig.size <= SERIAL_NODES):
                     phi, D, its, res, outer, outer_ok = _solve_channel(
                         grid, sig, a, D0, s0, s1, x0c, tol, maxiter, preconditioner, flux_limited, max_outer,
