@@ -261,10 +261,11 @@ class SceneStages:
         ``info`` the iterations, residual and convergence of the last light's solve (kept with its
         solution; None without lights).
 
-        One solve per light, cached per light: a relight re-solves only the light that changed.
-        Plain and flux-limited solves start warm (:meth:`warm_start`). σt and albedo are checked and converted once per scene; each light's
-        optical depth comes from :meth:`optical_depth` on the light grid of ``grid``'s factor;
-        ``sweep_orders``: the first scattering orders by transport sweeps (docs/diffusion.rst §5)."""
+        One solve per light, cached per light: a relight re-solves only the light that changed,
+        and plain and flux-limited solves start warm (:meth:`warm_start`). σt and albedo are
+        checked and converted once per scene; each light's optical depth comes from
+        :meth:`optical_depth` on the light grid of ``grid``'s factor; ``sweep_orders``: the first
+        scattering orders by transport sweeps (docs/diffusion.rst §5)."""
         from ..stages.diffusion.packing import add_packed
 
         g = float(phase.mean_cosine)

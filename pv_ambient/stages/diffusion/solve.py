@@ -32,6 +32,14 @@ previous channel's solution scaled by the source power — replaces the plain fi
 lagged passes start from it. Where σt' = 0 the limiter gives ``D = φ/|∇φ − 3Q1|`` (free
 streaming, at most the vacuum floor's ℓ̄/3).
 
+Warm starts
+-----------
+Every linear solve starts from its warm start scaled by the energy-optimal factor
+(:func:`.multigrid.pcg`): it never starts further from the solution, in the energy norm, than a
+zero start, and costs one matrix product. The second and later channels of plain diffusion start from the previous channel's
+solution, ``x0`` (the stage passes the previous solution on a relight or a transfer-function
+change, docs/diffusion.rst, "Warm starts") from the first channel on.
+
 Transport sweeps
 ----------------
 :func:`solve_for_light` with ``sweep_orders = K`` carries the first K scattering orders by
