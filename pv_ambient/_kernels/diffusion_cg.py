@@ -8,6 +8,7 @@ order. Why: a sum over threads would depend on the thread count; this one is the
 from __future__ import annotations
 
 from ._jit import driver, prange
+from .diffusion_operator import row_index
 
 
 @driver
@@ -38,6 +39,22 @@ def cg_step(x, r, p, q, alpha, part):
 
 
 @driver
+def scaled_start(x, alpha, ax, b, r, part):
+    """x *= α, r = b − α·(A x before scaling) (``ax``), part[i] = Σ_jk r²: a warm start scaled by
+    the α that minimises the error's energy norm along it."""
+    nx, ny, nz = x.shape
+    for i in prange(nx):
+        s = 0.0
+        for j in range(ny):
+            for k in range(nz):
+                x[i, j, k] *= alpha
+                v = b[i, j, k] - alpha * ax[i, j, k]
+                r[i, j, k] = v
+                s += v * v
+        part[i] = s
+
+
+@driver
 def cg_direction(p, z, beta):
     """p = z + β p."""
     nx, ny, nz = p.shape
@@ -48,14 +65,20 @@ def cg_direction(p, z, beta):
 
 
 @driver
-def jacobi(diag, r, z, part):
-    """z = r / diag and part[i] = Σ_jk r·z."""
+def jacobi(wx, wy, wz, c, r, z, part):
+    """z = r / diag (diag = c + Σ adjacent couplings) and part[i] = Σ_jk r·z."""
     nx, ny, nz = r.shape
     for i in prange(nx):
+        im, ip, fi = row_index(i, nx)
         s = 0.0
         for j in range(ny):
+            jm, jp, fj = row_index(j, ny)
             for k in range(nz):
-                v = r[i, j, k] / diag[i, j, k]
+                km = max(k - 1, 0)
+                fk = 1.0 if k > 0 else 0.0
+                d = (c[i, j, k] + fi * wx[im, j, k] + wx[i, j, k] + fj * wy[i, jm, k] + wy[i, j, k]
+                     + fk * wz[i, j, km] + wz[i, j, k])
+                v = r[i, j, k] / d
                 z[i, j, k] = v
                 s += v * r[i, j, k]
         part[i] = s

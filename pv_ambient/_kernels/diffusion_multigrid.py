@@ -1,7 +1,8 @@
 """Aggregation multigrid transfers of the diffusion solve's preconditioner (docs/diffusion.rst §2,
 "Solver"): the residual restricted to aggregates, piecewise-constant prolongation, and the coarse
-operator. Arrays are stored as in :mod:`.diffusion_operator`; an aggregate is a block of
-``fx × fy × fz`` fine nodes (2 along a coarsened axis, else 1).
+operator. Arrays are stored as in :mod:`.diffusion_operator` (float32 coefficients and coarse
+iterates; sums in float64); an aggregate is a block of ``fx × fy × fz`` fine nodes (2 along a
+coarsened axis, else 1).
 """
 
 from __future__ import annotations
@@ -9,33 +10,32 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import driver, prange
-from .diffusion_operator import offdiag, row_index
+from .diffusion_operator import RESIDUAL, row_apply, row_index
 
 
 @driver
-def residual_restrict(wx, wy, wz, diag, x, b, fx, fy, fz, rc):
+def residual_restrict(wx, wy, wz, c, x, b, fx, fy, fz, rc):
     """rc[I, J, K] = Σ over the fine block of node (I, J, K) of the residual b − A x
     (blocks of fx × fy × fz; the residual is never stored)."""
     nx, ny, nz = x.shape
     mx, my, mz = rc.shape
     for ci in prange(mx):
         row = np.empty(nz)
-        for cj in range(my):
-            for ck in range(mz):
-                rc[ci, cj, ck] = 0.0
+        acc = np.zeros((my, mz))  # float64 sums, stored in rc's dtype once
         for i in range(ci * fx, min(ci * fx + fx, nx)):
             im, ip, fi = row_index(i, nx)
             for j in range(ny):
                 jm, jp, fj = row_index(j, ny)
                 cj = j // fy
-                for k in range(nz):
-                    row[k] = (b[i, j, k] - diag[i, j, k] * x[i, j, k]
-                              + offdiag(wx, wy, wz, x, i, j, k, im, ip, jm, jp, fi, fj))
+                row_apply(wx, wy, wz, c, x, b, i, j, im, ip, jm, jp, fi, fj, RESIDUAL, row)
                 for ck in range(mz):
                     s = 0.0
                     for k in range(ck * fz, min(ck * fz + fz, nz)):
                         s += row[k]
-                    rc[ci, cj, ck] += s
+                    acc[cj, ck] += s
+        for cj in range(my):
+            for ck in range(mz):
+                rc[ci, cj, ck] = acc[cj, ck]
 
 
 @driver

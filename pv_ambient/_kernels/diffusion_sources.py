@@ -298,3 +298,26 @@ def hat_source(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_p
                     w_out[i, j, k, 0] = wx / d
                     w_out[i, j, k, 1] = wy / d
                     w_out[i, j, k, 2] = wz / d
+
+
+@driver
+def first_collision(sig, alb, E, g, g_per_node, g0, omega, with_q1, q0, q1):
+    """``q0 = a σt E`` and, when ``with_q1``, ``q1 = g q0 ω`` per node and channel, written into
+    ``q0`` (nx, ny, nz, C) and ``q1`` (nx, ny, nz, C, 3) in their dtype (float32: the products
+    are formed in float64, rounded once). ``alb`` (nx, ny, nz, Ca) and ``E`` (nx, ny, nz, Ce)
+    broadcast along their last axis when it has one entry; ``g`` per node when ``g_per_node``,
+    else ``g0``."""
+    nx, ny, nz, C = q0.shape
+    ca = alb.shape[3]
+    ce = E.shape[3]
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                st = 1.0 * sig[i, j, k]
+                gg = g[i, j, k] if g_per_node else g0
+                for c in range(C):
+                    v = alb[i, j, k, min(c, ca - 1)] * st * E[i, j, k, min(c, ce - 1)]
+                    q0[i, j, k, c] = v
+                    if with_q1:
+                        for a in range(3):
+                            q1[i, j, k, c, a] = gg * v * omega[i, j, k, a]

@@ -75,6 +75,7 @@ class SceneStages:
         """The stages of other optical properties of the same σt: the σt-only entries (majorant,
         light grids, optical depths) carried over, the GPU cache shared."""
         other = SceneStages(optics, self.geometry, self.cache.with_sigma_only())
+        other.cache.share(self.cache, kinds=("diffusion_start",))  # warm starts of the new solves
         other._device = self._device
         return other
 
@@ -267,10 +268,11 @@ class SceneStages:
         ``info`` the iterations, residual and convergence of the last light's solve (kept with its
         solution; None without lights).
 
-        One solve per light, cached per light: a relight re-solves only the light that changed
-        (from a zero start). σt and albedo are checked and converted once per scene; each light's
-        optical depth comes from :meth:`optical_depth` on the light grid of ``grid``'s factor;
-        ``sweep_orders``: the first scattering orders by transport sweeps (docs/diffusion.rst §5)."""
+        One solve per light, cached per light: a relight re-solves only the light that changed,
+        and plain and flux-limited solves start warm (:meth:`warm_start`). σt and albedo are
+        checked and converted once per scene; each light's optical depth comes from
+        :meth:`optical_depth` on the light grid of ``grid``'s factor; ``sweep_orders``: the first
+        scattering orders by transport sweeps (docs/diffusion.rst §5)."""
         from ..stages.diffusion.packing import add_packed
 
         g = float(phase.mean_cosine)
@@ -283,15 +285,40 @@ class SceneStages:
         total, info = None, None
         for lt, key in zip(lights, keys):
             if key not in self.cache:
+                x0 = None if sweep else self.warm_start(lt, lights, key)
                 self.cache[key] = self._timed(f"diffusion {lt}", lambda: self._solve(
-                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend))
+                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend, x0))
+                if not sweep:
+                    self.cache[("diffusion_start",) + key[1:]] = self.cache[key][0]
             part, info = self.cache[key]
             total = add_packed(total, part)
         if len(keys) > 1:
             self.cache[("diffusion_sum", keys)] = (total, info)
         return (total if total is not None else K.NONE12), info
 
-    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend):
+    def warm_start(self, light, lights, key):
+        """The fluence a new solve of ``light`` (cache key ``key``) starts from, float32 (nx, ny, nz,
+        3), or None: the light's own previous solution under other optics (a transfer-function
+        change: :meth:`with_optics` and ``SceneCache.share(kinds=("diffusion_start",))`` carry the
+        ``"diffusion_start"`` entries over), else the latest solution, on the same light grid and
+        options, of a light no longer in ``lights`` (a relight: the light that moved). The solver
+        scales a start by its energy-optimal factor, so a poor one costs at most one matrix
+        product (docs/diffusion.rst, "Warm starts"). Not for the transport sweeps, whose packed
+        field holds the swept orders too."""
+        from .._kernels.raycast import diffusion_layout
+
+        own = ("diffusion_start", light) + key[2:]
+        packed = self.cache[own] if own in self.cache else None
+        if packed is None:
+            moved = [k for k in self.cache.keys("diffusion") if k[2:] == key[2:] and k[1] not in lights]
+            packed = self.cache[moved[-1]][0] if moved else None
+        if packed is None or packed.shape[:3] != tuple(self.geometry.shape):
+            return None
+        n, nch = diffusion_layout(packed.shape[3])
+        phi = packed[..., 0::n]
+        return np.broadcast_to(phi, phi.shape[:3] + (3,)) if nch == 1 else phi
+
+    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None):
         from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light
         from ..stages.diffusion.packing import pack_for_march
 
@@ -305,6 +332,6 @@ class SceneStages:
         extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
         sol = solve_for_light(light, phase if sweep else g, medium=medium, geometry=self.geometry,
                               tau=self.optical_depth(light, lgrid, backend), light_grid=lgrid,
-                              flux_limited=flux_limited, progress_bar=progress_bar, **extra)
+                              flux_limited=flux_limited, progress_bar=progress_bar, x0=x0, **extra)
         info = {"iterations": int(sol.iterations), "residual": float(sol.residual), "converged": bool(sol.converged)}
         return pack_for_march(sol, g), info

@@ -404,13 +404,80 @@ def test_assembly_kernel_against_numpy(association, with_q1):
         D = 0.01 + rng.random(shape)
         Q1 = rng.normal(size=shape + (3,)) if with_q1 else None
         Q0 = rng.random(shape)
-        w, c, b = dsystem.assemble(grid, np.zeros(shape), D, Q0, Q1)
+        sig = 3.0 * rng.random(shape)
+        alb = rng.random(shape).astype(np.float32)
+        w, c, b = dsystem.assemble(grid, sig, alb, D, Q0, Q1)
         w_ref, db_ref = _faces_numpy(D, Q1, grid)
         for a in range(3):
-            np.testing.assert_allclose(w[a], w_ref[a], rtol=1e-13, atol=0)
-        # b = Q0 V + divergence + box-face terms (cell data with Q1 only): compare the interior
+            # the couplings are stored in float32: relative rounding ≤ 2⁻²⁴
+            assert w[a].dtype == np.float32
+            np.testing.assert_allclose(w[a], w_ref[a], rtol=2.0 ** -24, atol=0)
+        # c = σa V (float64) plus the box faces' terms: compare the interior
         inner = tuple(slice(1, -1) if n > 2 else slice(None) for n in shape)
+        np.testing.assert_allclose(c[inner], ((1.0 - alb.astype(np.float64)) * sig * grid.volume)[inner], rtol=1e-14,
+                                   atol=0)
+        # b = Q0 V + divergence + box-face terms (cell data with Q1 only)
         np.testing.assert_allclose((b - Q0 * grid.volume)[inner], db_ref[inner], rtol=1e-12, atol=1e-12)
+
+
+def _node_flux_numpy(grid, phi, D, Q1):
+    """F at the nodes with numpy slicing (index-axis components): the mean of the two adjacent
+    face fluxes; at a point-data boundary node its Marshak face flux, at a cell-data one the mean
+    of it and the inner face's; 3 D Q1 along an axis with one node."""
+    shape = grid.shape
+    F = np.zeros(shape + (3,))
+    for a in range(3):
+        n = shape[a]
+        q = None if Q1 is None else Q1[..., a]
+        if n < 2:
+            if q is not None:
+                F[..., a] = 3.0 * D * q
+            continue
+        lo, hi = dsystem._sl(a, 0, n - 1), dsystem._sl(a, 1, n)
+        Df = 2.0 * D[lo] * D[hi] / (D[lo] + D[hi])
+        Ff = -Df * (phi[hi] - phi[lo]) / grid.h[a]
+        if q is not None:
+            Ff += 3.0 * Df * 0.5 * (q[lo] + q[hi])
+        Fa = F[..., a]
+        Fa[dsystem._sl(a, 1, n - 1)] = 0.5 * (Ff[dsystem._sl(a, 0, n - 2)] + Ff[dsystem._sl(a, 1, n - 1)])
+        for side in (-1, 1):
+            s = dsystem._boundary(grid, a, side)[0]
+            out = dsystem._boundary_flux(grid, a, side, phi, D, q)
+            if grid.association == "point":
+                Fa[s] = side * out
+            else:
+                inner = Ff[dsystem._sl(a, 0, 1)] if side < 0 else Ff[dsystem._sl(a, n - 2, n - 1)]
+                Fa[s] = 0.5 * (side * out + inner)
+    return F
+
+
+@pytest.mark.parametrize("association", ["point", "cell"])
+@pytest.mark.parametrize("with_q1", [False, True])
+def test_flux_and_power_kernel_against_numpy(association, with_q1):
+    """The node flux and power kernel: F as numpy slicing computes it (also rotated, on a
+    reflecting face and into a float32 channel view), Σ Q0 V and Σ σa φ V as numpy sums."""
+    rng = np.random.default_rng(11)
+    faces = (("marshak", "reflect"), ("marshak", "marshak"), ("reflect", "marshak"))
+    R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    for shape in ((9, 7, 5), (6, 1, 4)):
+        grid = dsystem.FVGrid(shape, (0.3, 0.2, 0.25), association, faces)
+        D = 0.01 + rng.random(shape)
+        phi = rng.random(shape)
+        sig = 3.0 * rng.random(shape)
+        alb = rng.random(shape + (3,)).astype(np.float32)
+        Q0 = rng.random(shape + (3,)).astype(np.float32)
+        Q1 = rng.normal(size=shape + (3,)) if with_q1 else None
+        want = _node_flux_numpy(grid, phi, D, Q1)
+        F = np.zeros(shape + (3, 3), np.float32)
+        src, absorbed, escaped = dsystem.flux_and_power(grid, phi, sig, alb[..., 1], D, Q0[..., 1], Q1, None,
+                                                        F[..., 1, :])
+        np.testing.assert_allclose(F[..., 1, :], want, rtol=1e-6, atol=1e-6 * np.abs(want).max())
+        assert not F[..., 0, :].any() and not F[..., 2, :].any()
+        assert src == pytest.approx(float(np.sum(Q0[..., 1] * grid.volume, dtype=np.float64)), rel=1e-12)
+        assert absorbed == pytest.approx(float(np.sum((1.0 - alb[..., 1].astype(np.float64)) * sig * phi * grid.volume)), rel=1e-12)
+        Fr = np.zeros(shape + (3,))
+        dsystem.flux_and_power(grid, phi, sig, alb[..., 1], D, Q0[..., 1], Q1, R, Fr)
+        np.testing.assert_allclose(Fr, want @ R.T, rtol=1e-12, atol=1e-12 * np.abs(want).max())
 
 
 def test_flux_limited_vacuum_is_finite_and_bounded():

@@ -32,6 +32,14 @@ previous channel's solution scaled by the source power — replaces the plain fi
 lagged passes start from it. Where σt' = 0 the limiter gives ``D = φ/|∇φ − 3Q1|`` (free
 streaming, at most the vacuum floor's ℓ̄/3).
 
+Warm starts
+-----------
+Every linear solve starts from its warm start scaled by the energy-optimal factor
+(:func:`.multigrid.pcg`): it never starts further from the solution, in the energy norm, than a
+zero start, and costs one matrix product. The second and later channels of plain diffusion start from the previous channel's
+solution, ``x0`` (the stage passes the previous solution on a relight or a transfer-function
+change, docs/diffusion.rst, "Warm starts") from the first channel on.
+
 Transport sweeps
 ----------------
 :func:`solve_for_light` with ``sweep_orders = K`` carries the first K scattering orders by
@@ -62,7 +70,7 @@ from .ordinates import DEFAULT_DIRECTIONS, scattering_orders
 from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
 from .sources import direct_irradiance, hat_source, source_in_medium
 from .solution import DiffusionSolution
-from .system import NO_Q1, FVGrid, assemble, check_boundary, node_flux, power_balance, reflects
+from .system import NO_Q1, FVGrid, assemble, check_boundary, flux_and_power, reflects
 
 __all__ = ["flux_limited_D", "mean_chord", "solve_diffusion", "solve_for_light", "solve_in_medium"]
 
@@ -96,11 +104,11 @@ def flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
     return out
 
 
-def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited,
-                   max_outer, outer_tol, d_max, d_min, bar):
-    """One channel: (phi float64, D used, iterations, largest residual, outer passes, whether the
-    flux limiter's passes converged)."""
-    w, c, b = assemble(grid, sigma_a, D0, Q0, Q1)
+def _solve_channel(grid, sig, a, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited, max_outer,
+                   outer_tol, d_max, d_min, bar, gg):
+    """One channel (σt ``sig``, albedo ``a``, D ``D0``): (phi float64, D used, iterations, largest
+    residual, outer passes, whether the flux limiter's passes converged)."""
+    w, c, b = assemble(grid, sig, a, D0, Q0, Q1)
     levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
     # The flux limiter's passes only need each lagged solve well below the change they measure
     # (outer_tol): they run to INNER_REL·outer_tol, and the last one is finished to tol.
@@ -119,13 +127,15 @@ def _solve_channel(grid, sig_p, sigma_a, sigma_s, D0, Q0, Q1, x0, tol, maxiter, 
         # mixing of depth ANDERSON_DEPTH (the plain lagged iteration contracts by only ≈ 0.8 per
         # pass in optically thin regions). The change that ends the passes is weighted by σs:
         # what the camera pass sees.
+        sigma_s = a * sig
+        sig_p = (1.0 - a) * sig + sigma_s * (1.0 - gg)
         weight = sigma_s if np.any(sigma_s > 0) else np.ones(grid.shape)
         xs, gs = [], []
         x = phi
         outer_ok = False
         for outer in range(1, max_outer + 1):
             D = flux_limited_D(grid, x, sig_p, Q1, d_max, d_min)
-            w, c, b = assemble(grid, sigma_a, D, Q0, Q1)
+            w, c, b = assemble(grid, sig, a, D, Q0, Q1)
             levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
             phi, k, res = pcg(levels, b, x, loose, maxiter, preconditioner, bar)
             its += k
@@ -262,6 +272,8 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
                     preconditioner="multigrid", max_outer=20, outer_tol=1e-2, boundary="marshak"):
     """:func:`solve_diffusion` in an already checked :class:`DiffusionMedium` (σt and albedo are
     not scanned or converted again: once per scene, not once per light); same parameters."""
+    from ..._kernels.diffusion_system import medium_coefficients
+
     t_start = time.perf_counter()
     sig, alb = medium.sigma_t, medium.albedo
     shape = sig.shape
@@ -292,22 +304,26 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
         from tqdm.auto import tqdm
 
         bar = tqdm(desc="diffusion", unit="it")
-    solved = []  # (albedo channel, Q0, Q1, phi) of channels solved so far
+    solved = []  # (albedo channel, Q0, Q1, phi, D) of channels solved so far
+    g_node = np.ndim(gg) == 3
+    g_arr = np.ascontiguousarray(gg, np.float64) if g_node else np.zeros((1, 1, 1))
+    part = np.zeros(shape[0])
     try:
         for ch in range(C):
+            # channel views, never copies (docs/diffusion.rst, "Precision and memory traffic")
             a = alb[..., ch] if alb.ndim == 4 else alb
-            s0 = np.asarray(q0[..., ch] if multi else q0, np.float64)
-            s1 = None if q1 is None else np.asarray(q1[..., ch, :] if multi else q1, np.float64)
+            s0 = q0[..., ch] if multi else q0
+            s1 = None if q1 is None else (q1[..., ch, :] if multi else q1)
             if s1 is not None and R is not None:
                 s1 = s1 @ R  # world → index-axis components
-            sigma_a = (1.0 - a) * sig
-            sig_p = sigma_a + a * sig * (1.0 - gg)
-            D0 = 1.0 / (3.0 * np.maximum(sig_p, sigma_floor))
-            if not np.any(sigma_a > 0) and not any(
+            D0 = np.empty(shape)
+            medium_coefficients(sig, a, g_arr, g_node, 0.0 if g_node else float(gg), float(sigma_floor), D0, part)
+            if not part.max() > 0.0 and not any(
                     shape[ax] > 1 and not reflects(grid, ax, sd) for ax in range(3) for sd in (-1, 1)):
                 raise ValueError("the diffusion problem is singular: no absorption (albedo 1 everywhere) and no "
                                  "face where light can leave (every face reflects or every axis has one node)")
             phi = D = None
+            fresh = False
             # reuse an earlier channel with equal albedo and proportional sources
             for a_prev, s0_prev, s1_prev, phi_prev, D_prev in solved:
                 k = _proportional(a, s0, s1, a_prev, s0_prev, s1_prev)
@@ -316,16 +332,20 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
                     break
             if phi is None:
                 x0c = None if x0 is None else (x0[..., ch] if multi else x0)
-                if x0c is None and flux_limited and solved and WARM_CHANNELS:
-                    # the previous channel's limited solution, scaled by the source power
+                if x0c is None and solved and WARM_CHANNELS:
+                    # the previous channel's solution: pcg scales a start by its energy-optimal
+                    # factor; the flux limiter's passes start from it as is, so scaled by the
+                    # source power there
                     a_p, s0_p, _, phi_p, _ = solved[-1]
-                    p_prev, p_cur = float(np.sum(s0_p)), float(np.sum(s0))
-                    if p_prev > 0 and p_cur > 0:
-                        x0c = phi_p * (p_cur / p_prev)
+                    x0c = phi_p
+                    if flux_limited:
+                        p_prev, p_cur = float(np.sum(s0_p, dtype=np.float64)), float(np.sum(s0, dtype=np.float64))
+                        x0c = phi_p * (p_cur / p_prev) if p_prev > 0 and p_cur > 0 else None
                 with one_thread_if(sig.size <= SERIAL_NODES):
                     phi, D, its, res, outer, outer_ok = _solve_channel(
-                        grid, sig_p, sigma_a, a * sig, D0, s0, s1, x0c, tol, maxiter, preconditioner, flux_limited,
-                        max_outer, outer_tol, d_max, d_min, bar)
+                        grid, sig, a, D0, s0, s1, x0c, tol, maxiter, preconditioner, flux_limited, max_outer,
+                        outer_tol, d_max, d_min, bar, gg)
+                fresh = True
                 conv = res <= tol and outer_ok
                 total_its += its
                 worst = max(worst, res)
@@ -338,18 +358,14 @@ def solve_in_medium(medium, g, spacing, Q0, Q1=None, *, flux_limited=False, tol=
                             f"max_outer={max_outer} passes")
                     warnings.warn(f"diffusion solve of channel {ch} did not converge: {what}, {its} iterations in "
                                   f"all; raise maxiter/max_outer or loosen tol/outer_tol", UserWarning, stacklevel=2)
-                solved.append((a, s0, s1, phi, D))
-            F = node_flux(grid, phi, D, s1)
-            if R is not None:
-                F = F @ R.T  # index-axis → world components
-            src, absorbed, escaped = power_balance(grid, phi, sigma_a, D, s0, s1)
+            phi_c = phi_out[..., ch] if multi else phi_out
+            phi_c[...] = phi
+            del phi
+            if fresh:
+                solved.append((a, s0, s1, phi_c, D))
+            F_c = F_out[..., ch, :] if multi else F_out
+            src, absorbed, escaped = flux_and_power(grid, phi_c, sig, a, D, s0, s1, R, F_c)
             power["source"][ch], power["absorbed"][ch], power["escaped"][ch] = src, absorbed, escaped
-            if multi:
-                phi_out[..., ch] = phi
-                F_out[..., ch, :] = F
-            else:
-                phi_out[...] = phi
-                F_out[...] = F
     finally:
         if bar is not None:
             bar.close()
@@ -390,7 +406,7 @@ def _checked_sources(shape, alb, Q0, Q1, x0, direction):
     else:
         R = None
     if x0 is not None:
-        x0 = check_array(x0, "x0", ndim=(3, 4))
+        x0 = check_array(x0, "x0", ndim=(3, 4), dtype="float")  # float32 stays: pcg converts per channel
         if x0.shape != q0.shape:
             raise ValueError(f"x0 must have the shape of phi {q0.shape}, got {x0.shape}")
     return q0, q1, x0, R, multi, C, qshape
@@ -484,8 +500,14 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
             first.append(hat_source(lt, geometry, tau_l, light_grid, medium if optics is None else optics, medium))
         else:
             E, omega = direct_irradiance(lt, geometry, tau_l, light_grid)
-            q0, q1 = source_in_medium(medium, g, E, omega)
-            Q0, Q1 = (q0, q1) if Q0 is None else (Q0 + q0, Q1 + q1)
+            q0, q1 = source_in_medium(medium, g, E, omega, first_moment=False)  # Q1 None where g = 0
+            del E, omega
+            if Q0 is None:
+                Q0, Q1 = q0, q1
+            else:
+                Q0 += q0
+                if q1 is not None:
+                    Q1 += q1
     if not sweep_orders:
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,

@@ -19,6 +19,8 @@ __all__ = ["direct_irradiance", "first_collision_source", "hat_medium", "hat_sou
 #: ``SUBSAMPLE_RADIUS`` index units of a point light, and farther out (or for a directional light).
 SUBSAMPLES = 4
 FAR_SUBSAMPLES = 2
+#: Placeholder for the first-moment output the kernel does not write.
+NO_Q1_5D = np.zeros((1, 1, 1, 1, 3), np.float32)
 SUBSAMPLE_RADIUS = 8.0
 #: Control volumes within this many index units (max-norm) of a point light use the solid-angle form.
 NEAR = 1.5
@@ -65,9 +67,13 @@ def first_collision_source(sigma_t, albedo, g, E_d, omega):
     return source_in_medium(DiffusionMedium.from_arrays(sigma_t, albedo), g, E_d, omega)
 
 
-def source_in_medium(medium, g, E_d, omega):
+def source_in_medium(medium, g, E_d, omega, *, first_moment=True):
     """:func:`first_collision_source` in an already checked :class:`DiffusionMedium` (σt and
-    albedo are not scanned again: once per scene, not once per light)."""
+    albedo are not scanned again: once per scene, not once per light); one parallel pass, float32
+    out (``_kernels.diffusion_sources.first_collision``). ``first_moment=False``: ``Q1`` is None
+    where it vanishes (g = 0 everywhere), so the solve neither stores nor reads it."""
+    from ..._kernels.diffusion_sources import first_collision
+
     sig, alb = medium.sigma_t, medium.albedo
     gg = check_mean_cosine(g, sig.shape)
     E = check_array(E_d, "E_d", ndim=(3, 4))
@@ -81,16 +87,18 @@ def source_in_medium(medium, g, E_d, omega):
     multi = alb.ndim == 4 or E.ndim == 4
     if alb.ndim == 4 and E.ndim == 4 and alb.shape[3] != E.shape[3]:
         raise ValueError(f"albedo has {alb.shape[3]} channels but E_d has {E.shape[3]}")
-    if multi:
-        a4 = alb if alb.ndim == 4 else alb[..., None]
-        e4 = E if E.ndim == 4 else E[..., None]
-        q0 = a4 * sig[..., None] * e4
-        gq = gg if np.ndim(gg) == 0 else gg[..., None]
-        q1 = (gq * q0)[..., None] * om[..., None, :]
-    else:
-        q0 = alb * sig * E
-        q1 = (gg * q0)[..., None] * om
-    return q0.astype(np.float32), q1.astype(np.float32)
+    a4 = alb if alb.ndim == 4 else alb[..., None]
+    e4 = E if E.ndim == 4 else E[..., None]
+    C = max(a4.shape[3], e4.shape[3])
+    g_node = np.ndim(gg) == 3
+    with_q1 = g_node or float(gg) != 0.0
+    q0 = np.empty(sig.shape + (C,), np.float32)
+    q1 = np.zeros(sig.shape + (C, 3), np.float32) if first_moment or with_q1 else None
+    first_collision(sig, a4, e4, np.asarray(gg, np.float64) if g_node else np.zeros((1, 1, 1)), g_node,
+                    0.0 if g_node else float(gg), om, with_q1, q0, NO_Q1_5D if q1 is None else q1)
+    if not multi:
+        q0, q1 = q0[..., 0], None if q1 is None else q1[..., 0, :]
+    return q0, q1
 
 
 def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES, far_subsamples=FAR_SUBSAMPLES,

@@ -15,6 +15,9 @@ is uniform along it (a slab or a 2D problem). Spacing may differ per axis. A rot
 (``direction``) only rotates vectors: Q1 is given and F returned in world components; the
 solver works with their components along the index axes.
 
+The couplings are stored in float32, the diagonal terms and every sum in float64
+(:mod:`.multigrid`, "Precision").
+
 Discrete power balance holds to the solver's residual: ``Σ Q0 V = Σ σa φ V + Σ_box faces A F·n``
 (:attr:`DiffusionSolution.power`).
 
@@ -27,7 +30,7 @@ import numpy as np
 
 from ...inputs.validation import check_choice
 
-__all__ = ["FVGrid", "NO_Q1", "assemble", "check_boundary", "node_flux", "power_balance", "reflects"]
+__all__ = ["FVGrid", "NO_Q1", "assemble", "check_boundary", "flux_and_power", "reflects"]
 
 #: Placeholder passed to the kernels when there is no first-moment source.
 NO_Q1 = np.zeros((1, 1, 1, 3))
@@ -66,14 +69,6 @@ def _sl(axis, a, b):
     return tuple(s)
 
 
-def _face_mean(D, axis, harmonic):
-    n = D.shape[axis]
-    d0, d1 = D[_sl(axis, 0, n - 1)], D[_sl(axis, 1, n)]
-    if harmonic:
-        return 2.0 * d0 * d1 / (d0 + d1)
-    return 0.5 * (d0 + d1)
-
-
 def reflects(grid, axis, side):
     """Whether the box face on ``side`` (−1 low, +1 high) of ``axis`` is a symmetry plane."""
     return grid.faces[axis][0 if side < 0 else 1] == "reflect"
@@ -85,18 +80,21 @@ def _boundary(grid, axis, side):
     return _sl(axis, idx, idx + 1), grid.area[axis]
 
 
-def assemble(grid, sigma_a, D, Q0, Q1):
-    """Couplings, absorption/boundary diagonal and right-hand side of one channel (float64).
-    Interior faces: ``_kernels.diffusion_system.assemble_faces``; box faces here."""
+def assemble(grid, sigma_t, albedo, D, Q0, Q1):
+    """Couplings ``w`` (3 arrays, float32), diagonal terms ``c`` (absorption σa V plus the box
+    faces' terms) and the right-hand side ``b`` (float64) of one channel: σa = (1 − a)σt
+    from ``sigma_t`` and the channel's ``albedo``. Any float dtype and layout (channel views)
+    is read as is. Interior faces, c and b in one pass
+    (``_kernels.diffusion_system.assemble_faces``); box faces here."""
     from ..._kernels.diffusion_system import assemble_faces
 
     shape = grid.shape
-    w = [np.empty(shape) for _ in range(3)]
-    b = Q0 * grid.volume
-    c = sigma_a * grid.volume
-    q1 = NO_Q1 if Q1 is None else np.ascontiguousarray(Q1, np.float64)
+    w = [np.empty(shape, np.float32) for _ in range(3)]
+    c = np.empty(shape)
+    b = np.empty(shape)
+    q1 = NO_Q1 if Q1 is None else Q1
     hx, hy, hz = (float(v) for v in grid.h)
-    assemble_faces(np.ascontiguousarray(D, np.float64), q1, Q1 is not None, *grid.wd, hx, hy, hz, *w, b)
+    assemble_faces(D, sigma_t, albedo, Q0, q1, Q1 is not None, *grid.wd, hx, hy, hz, *w, c, b)
     for a in range(3):
         if shape[a] < 2:
             continue
@@ -114,35 +112,6 @@ def assemble(grid, sigma_a, D, Q0, Q1):
     return w, c, b
 
 
-def node_flux(grid, phi, D, Q1):
-    """F at the nodes (index-axis components): the mean of the two adjacent face fluxes; at a
-    point-data boundary node its Marshak face flux; 3 D Q1 along an axis with one node."""
-    shape = grid.shape
-    F = np.zeros(shape + (3,))
-    for a in range(3):
-        n = shape[a]
-        q = None if Q1 is None else Q1[..., a]
-        if n < 2:
-            if q is not None:
-                F[..., a] = 3.0 * D * q
-            continue
-        Df = _face_mean(D, a, True)
-        Ff = -Df * (phi[_sl(a, 1, n)] - phi[_sl(a, 0, n - 1)]) / grid.h[a]
-        if q is not None:
-            Ff += 3.0 * Df * 0.5 * (q[_sl(a, 0, n - 1)] + q[_sl(a, 1, n)])
-        Fa = F[..., a]
-        Fa[_sl(a, 1, n - 1)] = 0.5 * (Ff[_sl(a, 0, n - 2)] + Ff[_sl(a, 1, n - 1)])
-        for side in (-1, 1):
-            s, _ = _boundary(grid, a, side)
-            out = _boundary_flux(grid, a, side, phi, D, q)  # outward F·n at the box face
-            if grid.association == "point":
-                Fa[s] = side * out
-            else:
-                inner = Ff[_sl(a, 0, 1)] if side < 0 else Ff[_sl(a, n - 2, n - 1)]
-                Fa[s] = 0.5 * (side * out + inner)
-    return F
-
-
 def _boundary_flux(grid, a, side, phi, D, q):
     """Outward F·n at the box face on one side of axis a, per unit area."""
     s = _boundary(grid, a, side)[0]
@@ -157,19 +126,32 @@ def _boundary_flux(grid, a, side, phi, D, q):
     return out
 
 
-def power_balance(grid, phi, sigma_a, D, Q0, Q1):
-    """(source Σ Q0 V, absorbed Σ σa φ V, escaped Σ_box faces A F·n) of one channel, in W."""
-    src = float(np.sum(Q0 * grid.volume))
-    absorbed = float(np.sum(sigma_a * phi * grid.volume))
+def flux_and_power(grid, phi, sigma_t, albedo, D, Q0, Q1, R, F):
+    """F at the nodes written into ``F`` (nx, ny, nz, 3), any float dtype (e.g. a float32 channel
+    view), in world components (``R``: the index axes in world; None: the identity), and the
+    power balance ``(source Σ Q0 V, absorbed Σ σa φ V, escaped Σ_box faces A F·n)`` in W (float64
+    sums). F: the mean of the two adjacent face fluxes; at a point-data boundary node its
+    Marshak face flux, at a cell-data one the mean of the face's and the inner face's; 3 D Q1
+    along an axis with one node (``_kernels.diffusion_system.node_flux_power``). ``Q1``:
+    index-axis components."""
+    from ..._kernels.diffusion_system import node_flux_power
+
+    shape = grid.shape
+    outs = np.array([[0.0 if reflects(grid, a, sd) else 1.0 for sd in (-1, 1)] for a in range(3)])
+    part = np.zeros((shape[0], 2))
+    rot = R is not None
+    hx, hy, hz = (float(v) for v in grid.h)
+    node_flux_power(phi, D, NO_Q1 if Q1 is None else Q1, Q1 is not None, sigma_t, albedo, Q0, *grid.wd, hx, hy, hz,
+                    grid.association == "cell", outs, np.asarray(R if rot else np.eye(3), np.float64), rot, F, part)
     escaped = 0.0
     for a in range(3):
-        if grid.shape[a] < 2:
+        if shape[a] < 2:
             continue
         q = None if Q1 is None else Q1[..., a]
         for side in (-1, 1):
             _, Ab = _boundary(grid, a, side)
             escaped += float(np.sum(Ab * _boundary_flux(grid, a, side, phi, D, q)))
-    return src, absorbed, escaped
+    return float(part[:, 0].sum()), float(part[:, 1].sum()), escaped
 
 
 def check_boundary(boundary):
