@@ -5,8 +5,8 @@ emission–absorption camera move. Each configuration runs in its own process (t
 fixed when Numba is imported), the processes taken in turn, ``--rounds`` times; each times
 ``--frames`` camera moves after a warm-up pair; the table gives the median frame per thread count.
 
-* packets, lane-by-lane loads: the default on Zen 4/5 (``+prefer-no-gather``);
-* packets, Numba's loads: ``PV_AMBIENT_GATHERS=1`` (hardware gathers where LLVM picks them);
+* packets, lane-by-lane loads: ``PV_AMBIENT_LANE_LOADS=1`` (``+prefer-no-gather`` on Zen 4/5);
+* packets, Numba's loads: the default (hardware gathers where LLVM picks them);
 * one ray at a time: ``PV_AMBIENT_PACKETS=0``, the per-pixel march (same sample function).
 
     python benchmarks/packets.py --n 256 --size 512
@@ -21,7 +21,7 @@ import subprocess
 import sys
 import time
 
-CONFIGS = [("packets, lane-by-lane loads", {}), ("packets, Numba's loads (gathers)", {"PV_AMBIENT_GATHERS": "1"}),
+CONFIGS = [("packets, lane-by-lane loads", {"PV_AMBIENT_LANE_LOADS": "1"}), ("packets, Numba's loads (gathers)", {}),
            ("one ray at a time", {"PV_AMBIENT_PACKETS": "0"})]
 
 
@@ -46,7 +46,9 @@ def child(n, size, frames):
 
 def run(n, size, frames, threads, env_extra):
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), **env_extra)
-    env.pop("NUMBA_CPU_FEATURES", None)
+    for var in ("NUMBA_CPU_FEATURES", "PV_AMBIENT_LANE_LOADS", "PV_AMBIENT_PACKETS"):
+        if var not in env_extra:
+            env.pop(var, None)
     proc = subprocess.run([sys.executable, __file__, "--child", "--n", str(n), "--size", str(size), "--frames",
                            str(frames)], env=env, capture_output=True, text=True, timeout=1800)
     if proc.returncode != 0:

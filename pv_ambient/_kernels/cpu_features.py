@@ -3,13 +3,15 @@
 
 A lane loop reads 8 corners per lane at unrelated addresses. LLVM compiles such a read as a
 hardware gather (``vgatherdps``) or as one load per lane inserted into a vector register. On AMD Zen 4
-and later the per-lane loads are faster (measured on this project's machine: the 256³ speed scene's
-emission–absorption frame 1.2× faster), and LLVM picks gathers there unless the subtarget feature
-``prefer-no-gather`` is set. Numba takes the CPU's features from ``NUMBA_CPU_FEATURES``, read once,
-when Numba is imported, for every function it compiles (and keys its disk cache on them). So
-``pv_ambient`` sets it on import — before it imports Numba — to the host's features plus
-``+prefer-no-gather`` on those CPUs, unless the variable is already set, ``PV_AMBIENT_GATHERS=1``
-asks for gathers, or Numba was imported first (then the loops gather; the images are the same).
+the per-lane loads are the faster (docs/performance.rst gives the figures), and LLVM picks gathers
+there unless the subtarget feature ``prefer-no-gather`` is set. Numba takes the CPU's features from
+``NUMBA_CPU_FEATURES``, read once, when Numba is imported, for every function it compiles. With that
+variable set, code Numba loads from its disk cache has been seen to differ in the last bits from the
+same code compiled in the process — an image would then depend on whether its kernels were cached —
+so the lane-by-lane policy is opt-in: ``PV_AMBIENT_LANE_LOADS=1`` makes ``import pv_ambient`` set the
+variable (host features plus ``+prefer-no-gather``, on Zen 4 and Zen 5, before it imports Numba),
+unless the variable is set already or Numba was imported first. By default the loops load as
+Numba's LLVM chooses.
 """
 
 from __future__ import annotations
@@ -31,8 +33,8 @@ def apply_load_policy() -> dict:
         feats = os.environ.get("NUMBA_CPU_FEATURES") or ""
         loads = "lane by lane" if "+prefer-no-gather" in feats else "Numba's choice"
         return _set(loads, "NUMBA_CPU_FEATURES/NUMBA_CPU_NAME set by the user")
-    if os.environ.get("PV_AMBIENT_GATHERS") == "1":
-        return _set("Numba's choice", "PV_AMBIENT_GATHERS=1")
+    if os.environ.get("PV_AMBIENT_LANE_LOADS") != "1":
+        return _set("Numba's choice", "the default (PV_AMBIENT_LANE_LOADS=1 asks for lane-by-lane loads)")
     if "numba" in sys.modules:
         return _set("Numba's choice", "numba was imported before pv_ambient")
     try:

@@ -305,7 +305,7 @@ class SceneStages:
         scales a start by its energy-optimal factor, so a poor one costs at most one matrix
         product (docs/diffusion.rst, "Warm starts"). Not for the transport sweeps, whose packed
         field holds the swept orders too."""
-        from .._kernels.raycast import diffusion_layout
+        from ..stages.diffusion.packing import packed_phi
 
         own = ("diffusion_start", light) + key[2:]
         packed = self.cache[own] if own in self.cache else None
@@ -314,9 +314,7 @@ class SceneStages:
             packed = self.cache[moved[-1]][0] if moved else None
         if packed is None or packed.shape[:3] != tuple(self.geometry.shape):
             return None
-        n, nch = diffusion_layout(packed.shape[3])
-        phi = packed[..., 0::n]
-        return np.broadcast_to(phi, phi.shape[:3] + (3,)) if nch == 1 else phi
+        return packed_phi(packed)
 
     def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None):
         from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light

@@ -33,3 +33,12 @@ def add_packed(total, part):
     if total.shape != part.shape:  # grey and coloured lights: all channels
         total, part = (np.tile(a, (1, 1, 1, 3)) if diffusion_layout(a.shape[3])[1] == 1 else a for a in (total, part))
     return total + part
+
+
+def packed_phi(packed) -> np.ndarray:
+    """φ per channel (nx, ny, nz, 3) of a packed field (a view; a grey field broadcast to three)."""
+    from ..._kernels.raycast import diffusion_layout
+
+    n, nch = diffusion_layout(packed.shape[3])
+    phi = packed[..., 0::n]
+    return np.broadcast_to(phi, phi.shape[:3] + (3,)) if nch == 1 else phi
