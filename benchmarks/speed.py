@@ -77,8 +77,8 @@ SCENE = "supernova_centre"  # benchmarks/scenes.py
 MODELS = {"EA": "emission_absorption", "SS": "single_scattering", "AS": "ambient_scattering",
           "diffusion": "diffusion"}
 
-# (row, kind, model, target ratio): the camera moves' targets are the CPU camera pass's
-# (docs/performance.rst, "CPU camera pass"), the other rows' the speed table's; one row per model
+# (row, kind, model, target ratio): the camera moves' targets are the CPU camera pass's goals
+# (docs/performance.rst, "CPU camera pass", measures them), the other rows' the speed table's
 ROWS = [
     ("emission-absorption, camera move", "camera", "EA", 1.5),
     ("single scattering, camera move", "camera", "SS", 2.0),
