@@ -43,8 +43,8 @@ from .majorant import block_at, block_span
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_opacity,
                      step_sample)
 from .models import AMBIENT_SCATTERING, EMISSION_ABSORPTION, SINGLE_SCATTERING
-from .baked import baked_grey, baked_light, baked_rgb, grid_point, point_weight
-from .raycast import STREAM_JITTER, TILE, index_ray, row_stride
+from .baked import baked_grey, baked_rgb, grid_point, point_weight
+from .raycast import STREAM_JITTER, TILE, index_ray, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
@@ -210,16 +210,8 @@ def lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64):
             q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
             a = step_opacity(march.opacity, q0, fq, 0.0, te - t)
             if a > 0.0:
-                if model == EMISSION_ABSORPTION:
-                    cr = step_column(march.opacity, q0, fq, 1)
-                    cg = step_column(march.opacity, q0, fq, 2)
-                    cb = step_column(march.opacity, q0, fq, 3)
-                else:  # the light, then albedo and emission
-                    lr, lg, lb = baked_light(x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, lights, grid)
-                    ar, ag, ab, er, eg, eb = step_albedo_emission(march.opacity, q0, fq)
-                    cr = ar * lr + (1.0 - ar) * er
-                    cg = ag * lg + (1.0 - ag) * eg
-                    cb = ab * lb + (1.0 - ab) * eb
+                cr, cg, cb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
+                                          oz + tm * dz, lights, grid)
                 w = T * a
                 l64[b64 + RR * LANES + k] += w * cr
                 l64[b64 + RG * LANES + k] += w * cg

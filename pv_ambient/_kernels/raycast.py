@@ -348,6 +348,19 @@ def lit_source(model, baked, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid,
     return lr, lg, lb
 
 
+@scalar(force_inline=True)
+def table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid):
+    """The source per unit extinction (rgb) of a table TF's sample at ``(q0, fq)`` of the step-corrected
+    table ``stab``: the colour for emission–absorption, else baked single scattering's
+    ``a·L + (1 − a)·Le`` (the light first: the albedo and emission are not held across its loop
+    over the slots). The per-pixel march and the packet driver's scalar pass share it."""
+    if model == EMISSION_ABSORPTION:
+        return step_column(stab, q0, fq, 1), step_column(stab, q0, fq, 2), step_column(stab, q0, fq, 3)
+    lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+    ar, ag, ab, er, eg, eb = step_albedo_emission(stab, q0, fq)
+    return ar * lr + (1.0 - ar) * er, ag * lg + (1.0 - ag) * eg, ab * lb + (1.0 - ab) * eb
+
+
 @scalar
 def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, i, j, W, H, t_end):
     """(r, g, b, T): radiance gathered along pixel (i, j)'s ray with ray-cast ``model`` (module
@@ -396,33 +409,19 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                     tnext = te + step
                     continue
                 t_block = tex
-            if model == EMISSION_ABSORPTION and mode == MODE_LUT:
-                # a table TF: the step-corrected table (a full step costs no exp), as the packet driver
+            if mode == MODE_LUT and (model == EMISSION_ABSORPTION or (
+                    baked and (model == SINGLE_SCATTERING or model == AMBIENT_SCATTERING))):
+                # a table TF's emission–absorption or baked single scattering (ambient scattering and
+                # diffusion fold into its bake): the step-corrected table, as the packet driver
                 q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
                 a = step_opacity(march.opacity, q0, fq, full_segment(t, te, step), te - t)
                 if a > 0.0:
+                    sr, sg, sb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
+                                              oz + tm * dz, lights, grid)
                     w = T * a
-                    r += w * step_column(march.opacity, q0, fq, 1)
-                    gg += w * step_column(march.opacity, q0, fq, 2)
-                    b += w * step_column(march.opacity, q0, fq, 3)
-                    T -= w
-                    if T < ert:
-                        break
-                t = te
-                tnext = te + step
-                continue
-            if baked and (model == SINGLE_SCATTERING or model == AMBIENT_SCATTERING) and mode == MODE_LUT:
-                # baked single scattering of a table TF (ambient scattering and diffusion fold into its
-                # bake), from the step-corrected table as emission–absorption, as the packet driver
-                q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
-                a = step_opacity(march.opacity, q0, fq, full_segment(t, te, step), te - t)
-                if a > 0.0:
-                    lr, lg, lb = baked_light(x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, lights, grid)
-                    ar, ag, ab, er, eg, eb = step_albedo_emission(march.opacity, q0, fq)
-                    w = T * a
-                    r += w * (ar * lr + (1.0 - ar) * er)
-                    gg += w * (ag * lg + (1.0 - ag) * eg)
-                    b += w * (ab * lb + (1.0 - ab) * eb)
+                    r += w * sr
+                    gg += w * sg
+                    b += w * sb
                     T -= w
                     if T < ert:
                         break
