@@ -22,7 +22,13 @@ model it prints, for each backend of ``--backends`` measured in the same process
 * the path tracer's camera paths per second (W·H·spp / time);
 * with both backends, GPU/CPU time ratios and the largest relative difference between the two images;
 * with ``--stages``, the stage timings of each warm-up frame (``Renderer.timings``: where a first
-  frame's time goes, compilation included).
+  frame's time goes, compilation included);
+* with ``--profile TOP``, a cProfile of ``--repeats`` more camera moves, its TOP functions by own
+  time (host work against the wait for the kernel).
+
+``--measures`` picks the columns (``--measures camera``: the camera moves alone, for a device run
+that must be short); the image difference is the warm-up frame's, so it is printed whatever is
+measured.
 
 The CPU baseline is measured only up to 256³ (``--cpu-max-n``): it is the reference the GPU rows
 are read against, and at 512³ its frames would take most of a device run's time. ``--backends
@@ -93,7 +99,13 @@ def backends_at(n, backends, cpu_max_n):
     return [b for b in backends if b != "cpu" or n <= cpu_max_n]
 
 
-def measure(scene, size, model, backend, repeats, spp):
+MEASURES = ("first", "camera", "relight", "tf")
+
+
+def measure(scene, size, model, backend, repeats, spp, measures=MEASURES, profile=0):
+    """The row's times (seconds) of ``measures``, the warm-up frame's stages and image; with
+    ``profile`` > 0, the cProfile table (the ``profile`` heaviest functions by own time) of
+    ``repeats`` further camera moves: where a frame's host time goes."""
     import pv_ambient as pa
     import scenes
     from timing import median_time
@@ -103,27 +115,53 @@ def measure(scene, size, model, backend, repeats, spp):
     opts = render_options(size, model, backend, spp)
     out = {}
     r = pa.Renderer(vol, transfer_function=tf, lights=[light], backend=backend)
-    r.render(camera=cams[0], **opts)  # warm-up: compilation, table slice on disk
+    out["image"] = r.render(camera=cams[0], **opts).radiance  # warm-up: compilation, table slice on disk
     out["stages"] = dict(r.timings)  # the warm-up frame's stages (compilation included)
 
     def first(k):
         rr = pa.Renderer(vol, transfer_function=tf, lights=[light], backend=backend)
-        out["image"] = rr.render(camera=cams[0], **opts).radiance
-    out["first"] = median_time(first, repeats)
-    out["camera"] = median_time(lambda k: r.render(camera=cams[k % len(cams)], **opts), repeats)
+        rr.render(camera=cams[0], **opts)
+    if "first" in measures:
+        out["first"] = median_time(first, repeats)
+    if "camera" in measures:
+        out["camera"] = median_time(lambda k: r.render(camera=cams[k % len(cams)], **opts), repeats)
+    if profile:
+        out["profile"] = camera_profile(r, cams, opts, repeats, profile)
 
     def relight(k):
         r.set_lights([pa.PointLight((0.05 * (k + 1), 0.0, 0.0), light.intensity)])
         r.render(camera=cams[0], **opts)
-    out["relight"] = median_time(relight, repeats)
+    if "relight" in measures:
+        out["relight"] = median_time(relight, repeats)
 
     def tf_change(k):
         rr = pa.Renderer(vol, transfer_function=scenes.table_tf(1.0 + 0.1 * (k + 1)), lights=[light], backend=backend)
         rr.render(camera=cams[0], **opts)
-    out["tf"] = median_time(tf_change, repeats)
-    if model == "path_traced":
+    if "tf" in measures:
+        out["tf"] = median_time(tf_change, repeats)
+    if model == "path_traced" and "camera" in out:
         out["paths_per_s"] = size[0] * size[1] * spp / out["camera"]
     return out
+
+
+def camera_profile(r, cams, opts, repeats, top):
+    """cProfile of ``repeats`` camera moves: the ``top`` functions by own time, one line each
+    (a CUDA frame's wait for its kernel shows as the download's or the synchronisation's own time)."""
+    import cProfile
+    import io
+    import pstats
+
+    prof = cProfile.Profile()
+    prof.enable()
+    for k in range(repeats):
+        r.render(camera=cams[(k + 1) % len(cams)], **opts)
+    prof.disable()
+    buf = io.StringIO()
+    stats = pstats.Stats(prof, stream=buf)
+    stats.sort_stats("tottime").print_stats(top)
+    lines = [ln for ln in buf.getvalue().splitlines() if ln.strip()]
+    start = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith("ncalls")), 0)
+    return [f"per {repeats} frames: {lines[0].strip()}"] + lines[start:start + top + 1]
 
 
 def device_name():
@@ -263,7 +301,8 @@ def run_table(args, emit):
             continue
         scene = scenes.scene(SCENE, n)
         for model in args.models:
-            res = {b: measure(scene, (w, w), model, b, args.repeats, args.spp) for b in here}
+            res = {b: measure(scene, (w, w), model, b, args.repeats, args.spp, args.measures, args.profile)
+                   for b in here}
             both = len(res) == 2
             if both:
                 g, c = res["cuda"], res["cpu"]
@@ -271,16 +310,19 @@ def run_table(args, emit):
             for b, m in res.items():
                 pps = f"{m['paths_per_s']:10.3g}" if "paths_per_s" in m else f"{'':10s}"
                 emit(f"{f'{n}³/{w}²':10s} {model:20s} {'gpu' if b == 'cuda' else 'cpu':4s} "
-                     + " ".join(f"{1e3 * m[k]:7.1f}ms" for k in ("first", "camera", "relight", "tf"))
+                     + " ".join(f"{1e3 * m[k]:7.1f}ms" if k in m else f"{'-':>9s}" for k in MEASURES)
                      + f" {pps} {diff if both and b == 'cuda' else '':>12}")
             if both:
-                ratio = " ".join(f"{c[k] / g[k]:8.3g}×" for k in ("first", "camera", "relight", "tf"))
+                ratio = " ".join(f"{c[k] / g[k]:8.3g}×" if k in g else f"{'-':>9s}" for k in MEASURES)
                 pr = f"{g['paths_per_s'] / c['paths_per_s']:9.3g}×" if "paths_per_s" in g else ""
                 emit(f"{'':10s} {'':20s} {'cpu/gpu':4s} {ratio} {pr}")
             if args.stages:
                 for b, m in res.items():
                     emit(f"{'':10s} {'':20s} {'gpu' if b == 'cuda' else 'cpu':4s} warm-up frame's stages (s): "
                          + ", ".join(f"{k} {v:.2f}" for k, v in m["stages"].items()))
+            for b, m in res.items():
+                for line in m.get("profile", ()):
+                    emit(f"# {model} {'gpu' if b == 'cuda' else 'cpu'} camera-move profile | {line}")
 
 
 def machine():
@@ -319,6 +361,10 @@ def parser():
     p.add_argument("--cpu-max-n", type=int, default=CPU_MAX_N,
                    help="the CPU rows only for cases up to this n³ (default: %(default)s)")
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--measures", nargs="+", default=list(MEASURES), choices=MEASURES,
+                   help="the columns measured (default: all; the image difference comes from the warm-up frame)")
+    p.add_argument("--profile", type=int, default=0, metavar="TOP",
+                   help="also profile --repeats camera moves: the TOP functions by own time")
     p.add_argument("--spp", type=int, default=4, help="path tracer samples per pixel per frame")
     p.add_argument("--fresh-process", action="store_true",
                    help="time the first frame in a fresh process with a warm kernel cache, each step apart")

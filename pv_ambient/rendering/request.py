@@ -261,7 +261,8 @@ class _DelayedBar:
 
         fmt = {"bar_format": "{desc}: {elapsed} elapsed"} if self.total == 1 else {}  # one step: the time
         self.bar = tqdm(total=self.total, desc=self.name, initial=self.n, leave=False, **fmt)
-        self.bar.start_t -= now - self.start  # elapsed time counts from the start of the stage
+        if hasattr(self.bar, "start_t"):  # a disabled bar (TQDM_DISABLE=1) keeps no clock
+            self.bar.start_t -= now - self.start  # elapsed time counts from the start of the stage
 
     def update(self, n=1):
         with _WATCHER.cond:

@@ -47,6 +47,19 @@ def test_cpu_only_table_runs_and_is_written(tmp_path, capsys):
     assert text.startswith("# $ python benchmarks/gpu.py --backends cpu")
 
 
+def test_measures_pick_the_columns_and_profile_prints_the_frame(tmp_path, capsys):
+    args = ["--backends", "cpu", "--cases", "8:4", "--models", "emission_absorption", "--repeats", "1",
+            "--measures", "camera", "--profile", "3", "--out", "-"]
+    assert gpu.main(args) == 0
+    lines = capsys.readouterr().out.splitlines()
+    row = next(ln for ln in lines if ln.startswith("8³/4²")).split()
+    assert row[3] == "-" and row[4].endswith("ms") and row[5:7] == ["-", "-"]  # first, camera, relight, TF
+    prof = [ln for ln in lines if "camera-move profile" in ln]
+    assert prof[0].split("| ")[1].startswith("per 1 frames") and any("ncalls" in ln for ln in prof)
+    with pytest.raises(SystemExit):
+        gpu.parser().parse_args(["--measures", "frame"])
+
+
 def test_fresh_process_child_times_each_step(capsys):
     assert gpu.main(["--_first-frame", "emission_absorption", "cpu", "8", "4"]) == 0
     res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])

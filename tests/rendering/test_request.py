@@ -175,6 +175,23 @@ def test_delayed_stage_bar_appears_only_after_two_seconds(monkeypatch, capsys):
     assert "slow stage" in capsys.readouterr().err
 
 
+def test_delayed_stage_bar_with_tqdm_disabled(monkeypatch):
+    """TQDM_DISABLE=1 (tqdm's own switch) gives a bar with no clock: showing it raised in the
+    watcher thread, every delayed stage of the process."""
+    import time
+
+    from pv_ambient.rendering import request
+
+    monkeypatch.setenv("TQDM_DISABLE", "1")
+    bar = request._DelayedBar("stage", 1, 1e9)
+    try:
+        bar.show(time.monotonic())  # what the watcher does once the delay has passed
+        bar.update()
+    finally:
+        bar.close()
+    assert bar.bar is not None and bar.n == 1
+
+
 def test_delayed_stage_bars_share_one_thread(monkeypatch):
     """Each delayed bar started and joined a thread of its own until 0.4.0: a camera move's three
     cached stages paid for three (docs/performance.rst, "Host work of a frame")."""
