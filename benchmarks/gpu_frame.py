@@ -43,6 +43,7 @@ sys.path.insert(0, str(HERE.parent))  # run from a checkout
 sys.path.insert(0, str(HERE))  # the benchmarks' shared helpers
 
 MODELS = ("emission_absorption", "single_scattering", "ambient_scattering", "diffusion")
+CHOICES = MODELS + ("ambient_occlusion",)
 COLUMNS = ("render", "args", "dispatch", "wait", "download", "pinned", "kernel", "other")
 
 
@@ -150,7 +151,7 @@ def measure(scene, size, model, frames, blocks=()):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--case", default="256:512", help="n:w, the n³ volume at window w² (default: %(default)s)")
-    p.add_argument("--models", nargs="+", default=list(MODELS), choices=MODELS)
+    p.add_argument("--models", nargs="+", default=list(MODELS), choices=CHOICES)
     p.add_argument("--frames", type=int, default=7, help="camera moves timed per model (default: %(default)s)")
     p.add_argument("--blocks", nargs="*", default=[], metavar="XxY",
                    help="also time the kernel alone in thread blocks of these shapes (e.g. 8x8 32x4)")
