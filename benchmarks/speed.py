@@ -525,7 +525,7 @@ def packet_line():
     pol = load_policy()
     if not packet.enabled():
         return "camera pass: the scalar driver everywhere (PV_AMBIENT_PACKETS=0)"
-    return (f"camera pass: emission-absorption and baked single/ambient scattering of a table TF in packets of "
+    return (f"camera pass: emission-absorption and baked single/ambient scattering and diffusion of a table TF in packets of "
             f"{packet.LANES} rays, loads {pol['loads']} ({pol['why']}); the others one ray at a time")
 
 

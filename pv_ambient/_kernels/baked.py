@@ -96,3 +96,42 @@ def baked_light(x, y, z, wx, wy, wz, lights, grid):
             sg += vg
             sb += vb
     return sr, sg, sb
+
+
+#: 1/(4π): an isotropic phase function's value, which turns the diffusion field's φ into radiance.
+INV_4PI = 0.07957747154594767
+
+
+@scalar(force_inline=True)
+def diffusion_grey(field, x, y, z):
+    """``max(φ, 0)/4π`` of a grey diffusion field (``field``: (nx, ny, nz, n) on the data samples,
+    φ in channel 0) at index-space point (x, y, z) (float32): the multiply-scattered light an
+    isotropic phase function scatters, read beside the bake where the field was not folded into it
+    (:func:`.raycast.bake_incident`); the packet driver reads the same, 16 rays at a time."""
+    v = trilinear32_c(field, x, y, z, 0)
+    return max(v, np.float32(0.0)) * INV_4PI
+
+
+@scalar(force_inline=True)
+def diffusion_rgb(field, per, x, y, z):
+    """:func:`diffusion_grey` per channel of a coloured field (φ of channel c at ``per·c``), the
+    corners located once."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(field.shape[0], field.shape[1], field.shape[2], x, y, z)
+    zero = np.float32(0.0)
+    return (max(corner32(field, i0, i1, fx, j0, j1, fy, k0, k1, fz, 0), zero) * INV_4PI,
+            max(corner32(field, i0, i1, fx, j0, j1, fy, k0, k1, fz, per), zero) * INV_4PI,
+            max(corner32(field, i0, i1, fx, j0, j1, fy, k0, k1, fz, 2 * per), zero) * INV_4PI)
+
+
+@scalar(force_inline=True)
+def diffusion_baked(field, x, y, z):
+    """The diffusion field's ``max(φ_c, 0)/4π`` (rgb) at index-space point (x, y, z) for baked lights
+    (an isotropic phase function: the radiance has no flux term, so only φ is read); the field's
+    layout as :func:`.raycast.diffusion_layout` (φ at every ``per``-th value)."""
+    n = field.shape[3]
+    per = 4 if n % 4 == 0 else 1
+    px, py, pz = np.float32(x), np.float32(y), np.float32(z)
+    if n == per:  # one channel: grey
+        v = diffusion_grey(field, px, py, pz)
+        return v, v, v
+    return diffusion_rgb(field, per, px, py, pz)

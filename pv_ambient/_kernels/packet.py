@@ -10,9 +10,10 @@ termination and jitter — split in three passes per step of the packet:
 2. :func:`lanes_fix` (scalar): the other lanes do what :func:`.raycast.march_pixel` does at a block
    boundary, on a partial segment (the jittered first, the last: ``exp`` of the table's σt)
    and at the end of the ray, until each has a full segment to sample or is done;
-3. :func:`lanes_sample_ea` / :func:`lanes_sample_lit` (vectorised): every active lane samples its
-   segment with the scalar functions the per-pixel march uses (:func:`.medium.step_sample`;
-   :func:`.medium.step_lookup` and :func:`.baked.baked_light`'s terms) and composites.
+3. :func:`lanes_sample_ea`, or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
+   :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
+   functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
+   :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms) and composites.
 
 Lane state is a flat structure of arrays per thread (float32 positions for the sample, float64
 ray state and sums: float64 where sums accumulate), indexed with unsigned integers. Why these
@@ -23,8 +24,8 @@ assignments, so the vectorised passes are inlined into the driver and create no 
 tuples or booleans there. ``tests/kernels/test_packet.py`` compiles the driver outside the disk
 cache and checks that vector FMAs are in its assembly.
 
-Which models and media (:func:`applies`): emission–absorption, and single and ambient scattering
-with baked in-scattering, of a LUT-mode (table) transfer function; every other case runs the scalar
+Which models and media (:func:`applies`): emission–absorption, and single scattering, ambient
+scattering and diffusion with baked in-scattering, of a LUT-mode (table) transfer function; every other case runs the scalar
 driver (:func:`.raycast.raycast_driver`), as does everything when ``PV_AMBIENT_PACKETS=0`` (the
 scalar fallback). :func:`raycast_image` is the CPU camera pass's
 entry (:mod:`pv_ambient.backend`).
@@ -42,8 +43,8 @@ from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_opacity,
                      step_sample)
-from .models import AMBIENT_SCATTERING, EMISSION_ABSORPTION, SINGLE_SCATTERING
-from .baked import baked_grey, baked_rgb, grid_point, point_weight
+from .models import AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
+from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_rgb, grid_point, point_weight
 from .raycast import STREAM_JITTER, TILE, index_ray, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
@@ -140,12 +141,12 @@ def lanes_step(l32, b32, l64, b64, step, ert):
 
 
 @scalar
-def lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64):
+def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64):
     """Pass 2 (scalar): every lane :func:`lanes_step` left marches as :func:`.raycast.march_pixel`
     does — block lookups and skips, partial segments sampled with ``exp`` of the interpolated σt,
     early termination — until it has a full segment to sample (its position written, active) or
-    is done. ``model``: emission–absorption, or single scattering with baked lights (the lit
-    sample of :func:`.raycast.march_pixel`). Returns the number of active lanes."""
+    is done. ``model``: emission–absorption, or single scattering or diffusion with baked lights (the
+    lit sample of :func:`.raycast.march_pixel`). Returns the number of active lanes."""
     step, ert = march.step, march.ert
     maj, block = medium.maj, medium.block
     active = 0
@@ -211,7 +212,7 @@ def lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64):
             a = step_opacity(march.opacity, q0, fq, 0.0, te - t)
             if a > 0.0:
                 cr, cg, cb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
-                                          oz + tm * dz, lights, grid)
+                                          oz + tm * dz, lights, grid, ambient, diffusion)
                 w = T * a
                 l64[b64 + RR * LANES + k] += w * cr
                 l64[b64 + RG * LANES + k] += w * cg
@@ -249,10 +250,10 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv):
 
 
 @scalar(inline=True)
-def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
-    """Pass 3 of single scattering with baked lights (vectorised): the opacity and table entry of
-    every lane's sample, the baked light one light slot at a time (:func:`.baked.baked_light`'s
-    terms, in its order), then the source ``a·L + (1 − a)·Le`` composited."""
+def lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
+    """Pass 3 of a lit sample with baked lights (vectorised), first part: the opacity and table
+    entry of every lane's sample, then the baked light one light slot at a time
+    (:func:`.baked.baked_light`'s terms, in its order) into the lanes' light."""
     for k in range(LANES):
         q0, fq = step_lookup(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                              l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
@@ -277,6 +278,34 @@ def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, g
             slot += 1
     if (slot + 1) * nch <= inc.shape[3]:  # the directional lights' slot
         lanes_baked_slot(l32, b32, l64, b64, inc, slot * nch, nch, lights, 0, 0)
+
+
+@scalar(inline=True)
+def lanes_diffusion(l32, b32, l64, b64, dfield):
+    """Pass 3 of diffusion with baked lights (vectorised), between the light and the compositing:
+    the diffusion field's φ/4π at every lane's sample added to its light (:func:`.baked.diffusion_baked`'s
+    terms; one loop per layout, so no branch is left inside them)."""
+    n = dfield.shape[3]
+    per = 4 if n % 4 == 0 else 1
+    if n == per:
+        for k in range(LANES):
+            v = diffusion_grey(dfield, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
+                               l32[np.uint64(b32 + Z * LANES + k)])
+            l64[np.uint64(b64 + LR * LANES + k)] += v
+            l64[np.uint64(b64 + LG * LANES + k)] += v
+            l64[np.uint64(b64 + LB * LANES + k)] += v
+    else:
+        for k in range(LANES):
+            vr, vg, vb = diffusion_rgb(dfield, per, l32[np.uint64(b32 + X * LANES + k)],
+                                       l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
+            l64[np.uint64(b64 + LR * LANES + k)] += vr
+            l64[np.uint64(b64 + LG * LANES + k)] += vg
+            l64[np.uint64(b64 + LB * LANES + k)] += vb
+
+
+@scalar(inline=True)
+def lanes_lit_composite(l32, b32, l64, b64, stab):
+    """Pass 3 of a lit sample, last part (vectorised): the source ``a·L + (1 − a)·Le`` composited."""
     for k in range(LANES):
         ar, ag, ab, er, eg, eb = step_albedo_emission(stab, np.uint64(l32[np.uint64(b32 + Q0 * LANES + k)]),
                                                       l32[np.uint64(b32 + FQ * LANES + k)])
@@ -332,17 +361,19 @@ def packet_end(march, i0, j0, row1, l64, b64, out_rad, out_alpha):
 
 
 def packet_driver(model):
-    """The packet driver of ray-cast ``model`` (emission–absorption, or single scattering with
-    baked lights — which ambient scattering and diffusion with baked lights march as): rows
+    """The packet driver of ray-cast ``model`` (emission–absorption, single scattering with baked
+    lights — which ambient scattering marches as, its ball term in the bake — or diffusion with
+    baked lights, its field read beside the bake): rows
     [row0, row1) of an image of a LUT-mode medium, the pixels in :data:`.raycast.TILE`² tiles in
     golden-ratio stride order (as the scalar driver), each tile in 4 × 4 packets; ``l32``/``l64``
     hold :data:`N32`/:data:`N64` lane fields per thread. ``model`` is the closure's constant (one
     compiled driver per model, cached on disk apart)."""
 
-    def packet_rows(view, march, medium, lights, grid, row0, row1, out_rad, out_alpha, l32, l64):
+    def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32, l64):
         H, W = out_alpha.shape
         step, ert = march.step, march.ert
         field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
+        dfield = diffusion.field
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
         n = n_rows * n_cols
@@ -359,19 +390,22 @@ def packet_driver(model):
                     packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
                     while True:
                         lanes_step(l32, b32, l64, b64, step, ert)
-                        if lanes_fix(model, march, medium, lights, grid, l32, b32, l64, b64) == 0:
+                        if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
                             break
                         if model == EMISSION_ABSORPTION:
                             lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv)
                         else:
-                            lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+                            lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+                            if model == DIFFUSION:
+                                lanes_diffusion(l32, b32, l64, b64, dfield)
+                            lanes_lit_composite(l32, b32, l64, b64, stab)
                     packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
 
     return driver(packet_rows)
 
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
-PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING)}
+PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING, DIFFUSION)}
 
 
 def enabled() -> bool:
@@ -382,11 +416,13 @@ def enabled() -> bool:
 
 def applies(model, medium, grid) -> bool:
     """Whether ray-cast ``model`` on ``medium`` (a :class:`.records.Medium`) with light grid ``grid``
-    runs in packets: emission–absorption, and single or ambient scattering whose lights' in-scattering
-    is baked (ambient scattering's ball term is in the bake), of a LUT-mode medium."""
+    runs in packets: emission–absorption, and single scattering, ambient scattering or diffusion whose
+    lights' in-scattering is baked (ambient scattering's ball term is in the bake), of a LUT-mode
+    medium."""
     if not enabled() or int(medium.mode) != MODE_LUT:
         return False
-    return model == EMISSION_ABSORPTION or (model in (SINGLE_SCATTERING, AMBIENT_SCATTERING) and grid.baked != 0)
+    return model == EMISSION_ABSORPTION or (model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)
+                                            and grid.baked != 0)
 
 
 def scratch():
@@ -395,11 +431,12 @@ def scratch():
     return np.zeros(n * N32 * LANES, np.float32), np.zeros(n * N64 * LANES, np.float64)
 
 
-def raycast_packets(model, view, march, medium, lights, grid, row0, row1, out_rad, out_alpha):
+def raycast_packets(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """Rows [row0, row1) of ray-cast ``model``'s image in packets (:func:`applies` must hold)."""
     l32, l64 = scratch()
-    driver_model = EMISSION_ABSORPTION if model == EMISSION_ABSORPTION else SINGLE_SCATTERING
-    PACKET_DRIVERS[driver_model](view, march, medium, lights, grid, row0, row1, out_rad, out_alpha, l32, l64)
+    driver_model = SINGLE_SCATTERING if model == AMBIENT_SCATTERING else model  # its ball term is in the bake
+    PACKET_DRIVERS[driver_model](view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad,
+                                 out_alpha, l32, l64)
 
 
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
@@ -407,7 +444,7 @@ def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, 
     (:func:`applies`), else one ray at a time (:func:`.raycast.raycast_image`); the scene in the
     records of :mod:`.records`."""
     if applies(model, medium, grid):
-        raycast_packets(model, view, march, medium, lights, grid, row0, row1, out_rad, out_alpha)
+        raycast_packets(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha)
     else:
         raycast_image_scalar(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad,
                              out_alpha)

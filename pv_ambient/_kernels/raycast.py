@@ -27,7 +27,7 @@ from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
-from .baked import baked_light
+from .baked import baked_light, diffusion_baked
 from .medium import (MODE_GRID, MODE_LUT, full_segment, lut_coords, lut_value, step_albedo_emission, step_column,
                      step_lookup, step_opacity)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
@@ -349,14 +349,22 @@ def lit_source(model, baked, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid,
 
 
 @scalar(force_inline=True)
-def table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid):
+def table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid, ambient, diffusion):
     """The source per unit extinction (rgb) of a table TF's sample at ``(q0, fq)`` of the step-corrected
-    table ``stab``: the colour for emission–absorption, else baked single scattering's
-    ``a·L + (1 − a)·Le`` (the light first: the albedo and emission are not held across its loop
-    over the slots). The per-pixel march and the packet driver's scalar pass share it."""
+    table ``stab``: the colour for emission–absorption, :func:`occlusion_table_source` for ambient
+    occlusion, else baked single scattering's ``a·L + (1 − a)·Le`` (the light first: the albedo and
+    emission are not held across its loop over the slots), with diffusion's field beside the bake
+    for diffusion. The per-pixel march, the CUDA kernels and the packet driver's scalar pass share it."""
     if model == EMISSION_ABSORPTION:
         return step_column(stab, q0, fq, 1), step_column(stab, q0, fq, 2), step_column(stab, q0, fq, 3)
+    if model == AMBIENT_OCCLUSION:
+        return occlusion_table_source(stab, q0, fq, x, y, z, ambient)
     lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+    if model == DIFFUSION:
+        mr, mg, mb = diffusion_baked(diffusion.field, x, y, z)
+        lr += mr
+        lg += mg
+        lb += mb
     ar, ag, ab, er, eg, eb = step_albedo_emission(stab, q0, fq)
     return ar * lr + (1.0 - ar) * er, ag * lg + (1.0 - ag) * eg, ab * lb + (1.0 - ab) * eb
 
@@ -369,18 +377,6 @@ def occlusion_table_source(stab, q0, fq, x, y, z, ambient):
     ar, ag, ab, _er, _eg, _eb = step_albedo_emission(stab, q0, fq)
     return (step_column(stab, q0, fq, 1) + ar * occ, step_column(stab, q0, fq, 2) + ag * occ,
             step_column(stab, q0, fq, 3) + ab * occ)
-
-
-@scalar(force_inline=True)
-def diffusion_table_source(stab, q0, fq, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid, diffusion):
-    """:func:`table_source` of diffusion with baked lights: the baked direct light plus the
-    diffusion field's multiply-scattered light (:func:`diffusion_light`), read where the field was
-    not folded into the bake (light-grid nodes other than the data samples)."""
-    lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
-    mr, mg, mb = diffusion_light(diffusion.field, x, y, z, dx, dy, dz, diffusion.g)
-    ar, ag, ab, er, eg, eb = step_albedo_emission(stab, q0, fq)
-    return (ar * (lr + mr) + (1.0 - ar) * er, ag * (lg + mg) + (1.0 - ag) * eg,
-            ab * (lb + mb) + (1.0 - ab) * eb)
 
 
 @scalar
@@ -440,15 +436,8 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                 q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
                 a = step_opacity(march.opacity, q0, fq, full_segment(t, te, step), te - t)
                 if a > 0.0:
-                    if model == AMBIENT_OCCLUSION:
-                        sr, sg, sb = occlusion_table_source(march.opacity, q0, fq, x, y, z, ambient)
-                    elif model == DIFFUSION:
-                        sr, sg, sb = diffusion_table_source(march.opacity, q0, fq, x, y, z, ox + tm * dx,
-                                                            oy + tm * dy, oz + tm * dz, dx, dy, dz, lights, grid,
-                                                            diffusion)
-                    else:
-                        sr, sg, sb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
-                                                  oz + tm * dz, lights, grid)
+                    sr, sg, sb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
+                                              oz + tm * dz, lights, grid, ambient, diffusion)
                     w = T * a
                     r += w * sr
                     gg += w * sg

@@ -14,6 +14,7 @@ import pyvista as pv
 import pv_ambient as pa
 from pv_ambient._kernels import cpu_features, packet
 from pv_ambient._kernels.medium import step_sample, step_table
+from pv_ambient._kernels.models import DIFFUSION
 from pv_ambient.inputs.camera import Camera
 
 #: Packet vs per-pixel march: the same float32 sample and float64 sums; only the rounding of a
@@ -36,10 +37,12 @@ def both(r, monkeypatch, model="emission_absorption", **kw):
     """(packet image, per-pixel image) of ``r``'s emission–absorption frame, and how many rows the
     packet driver rendered."""
     calls = []
+    models = []
     real = packet.raycast_packets
 
     def counting(*a):
-        calls.append(a[7] - a[6])
+        calls.append(a[9] - a[8])  # row1 - row0
+        models.append(a[0])
         return real(*a)
 
     monkeypatch.setattr(packet, "raycast_packets", counting)
@@ -49,6 +52,7 @@ def both(r, monkeypatch, model="emission_absorption", **kw):
         monkeypatch.setenv("PV_AMBIENT_PACKETS", flag)
         res = r.render(camera=CAM, model=model, progress_bar=False, **kw)
         out.append((np.asarray(res.radiance, np.float64), np.asarray(res.alpha, np.float64)))
+    both.models = models  # the kernel models that ran in packets
     return out[0], out[1], sum(calls)
 
 
@@ -91,17 +95,21 @@ def test_packets_equal_the_per_pixel_march(case, monkeypatch):
 
 
 @pytest.mark.parametrize("model, rgb", [("single_scattering", False), ("single_scattering", True),
-                                        ("ambient_scattering", True)])
+                                        ("ambient_scattering", True), ("diffusion", False), ("diffusion", True)])
 def test_lit_packets_equal_the_per_pixel_march(model, rgb, monkeypatch):
     """Baked in-scattering (isotropic phase): a point light inside the blob (its 1/d² at the sample)
-    and a directional light; grey slots (white lights, grey albedo) or rgb slots."""
+    and a directional light; grey slots (white lights, grey albedo) or rgb slots. Diffusion's field,
+    on the data samples, is read beside the bake on a light grid finer than the data's."""
     tf = pa.TransferFunction(cmap="viridis", clim=(0.1, 1.0), opacity="linear", opacity_unit_distance=0.05,
                              albedo=0.8)
     power = (3.0, 2.0, 1.0) if rgb else 2.0
     lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=power), pa.DirectionalLight((0.3, 0.5, -1.0), irradiance=0.7)]
     r = pa.Renderer(blob(), transfer_function=tf, lights=lights)
-    (a, aa), (b, ba), rows = both(r, monkeypatch, model=model, quality="preview", jitter=True)
+    extra = {"light_resolution": 2.0} if model == "diffusion" else {}  # a light grid finer than the data's
+    (a, aa), (b, ba), rows = both(r, monkeypatch, model=model, quality="preview", jitter=True, **extra)
     assert rows > 0 and b.mean() > 1e-3
+    if model == "diffusion":
+        assert both.models and set(both.models) == {DIFFUSION}  # its own driver, not single scattering's
     assert np.abs(a - b).max() <= PACKET_TOL * max(1.0, b.max()) and np.abs(aa - ba).max() <= PACKET_TOL
 
 
@@ -152,6 +160,7 @@ def test_step_table_columns():
 
 _ASM_SCRIPT = r"""
 import sys
+import numba
 import numpy as np
 import pyvista as pv
 import pv_ambient as pa
@@ -160,28 +169,37 @@ from pv_ambient._kernels.cpu_features import load_policy
 g = pv.ImageData(dimensions=(6, 6, 6), spacing=(0.2,) * 3, origin=(-0.5,) * 3)
 g["d"] = np.linspace(0, 1, g.n_points).astype(np.float32)
 r = pa.Renderer(g, transfer_function=pa.TransferFunction(clim=(0, 1)))
+seen = []
+real = packet.raycast_packets
+packet.raycast_packets = lambda *a: seen.append(a) or real(*a)
 r.render(camera=pa.Camera((0, -3, 0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), progress_bar=False)
-drv = packet.PACKET_DRIVERS[0]
-asm = drv.inspect_asm(drv.signatures[0])
+# diffusion's driver compiled for the same argument types (no solve: only its code is looked at)
+args = seen[0][1:] + packet.scratch()
+packet.PACKET_DRIVERS[4].compile(tuple(numba.typeof(a) for a in args))
 print("POLICY", load_policy()["loads"])
-print("PACKED_FMA", len(re.findall(r"vfmadd\w*ps\s+%[yz]mm", asm)))
-print("GATHERS", len(re.findall(r"vgather\w+", asm)))
+for model in (0, 4):  # emission-absorption, diffusion (the lit lane loops and the field's)
+    drv = packet.PACKET_DRIVERS[model]
+    asm = drv.inspect_asm(drv.signatures[0])
+    print(f"PACKED_FMA{model}", len(re.findall(r"vfmadd\w*ps\s+%[yz]mm", asm)))
+    print(f"GATHERS{model}", len(re.findall(r"vgather\w+", asm)))
 """
 
 
 def test_packet_driver_is_vectorised(tmp_path):
-    """Compiled outside the disk cache, the packet driver's assembly holds packed float32 FMAs (the
-    lane loops vectorised); with the lane-by-lane load policy, no hardware gathers."""
+    """Compiled outside the disk cache, the packet drivers' assembly (emission–absorption's, and
+    diffusion's, which holds the lit lane loops and the field's) has packed float32 FMAs (the lane
+    loops vectorised); with the lane-by-lane load policy, no hardware gathers."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PV_AMBIENT_PACKETS="1")
     env.pop("NUMBA_CPU_FEATURES", None)
     proc = subprocess.run([sys.executable, "-c", "import re\n" + _ASM_SCRIPT], env=env, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     found = dict(line.split(" ", 1) for line in proc.stdout.splitlines() if line.split(" ")[0] in
-                 ("POLICY", "PACKED_FMA", "GATHERS"))
-    assert int(found["PACKED_FMA"]) >= 4
-    if found["POLICY"] == "lane by lane":
-        assert int(found["GATHERS"]) == 0
+                 ("POLICY", "PACKED_FMA0", "GATHERS0", "PACKED_FMA4", "GATHERS4"))
+    for model in (0, 4):
+        assert int(found[f"PACKED_FMA{model}"]) >= 4, found
+        if found["POLICY"] == "lane by lane":
+            assert int(found[f"GATHERS{model}"]) == 0, found
 
 
 def test_load_policy(monkeypatch):
