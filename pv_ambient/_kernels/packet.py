@@ -235,9 +235,10 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
 
 
 @scalar(inline=True)
-def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv):
+def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
     """Pass 3 (vectorised): every lane samples its full segment with :func:`.medium.step_sample`
-    and composites (an inactive lane adds nothing)."""
+    and composites (an inactive lane adds nothing; ``lights`` and ``grid`` unused: every pass 3
+    takes the same arguments)."""
     for k in range(LANES):
         a, cr, cg, cb = step_sample(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                                     l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
@@ -301,6 +302,23 @@ def lanes_diffusion(l32, b32, l64, b64, dfield):
             l64[np.uint64(b64 + LR * LANES + k)] += vr
             l64[np.uint64(b64 + LG * LANES + k)] += vg
             l64[np.uint64(b64 + LB * LANES + k)] += vb
+
+
+@scalar(inline=True)
+def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
+    """Pass 3 of single scattering with baked lights (vectorised): :func:`lanes_lit_light` then
+    :func:`lanes_lit_composite`."""
+    lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+    lanes_lit_composite(l32, b32, l64, b64, stab)
+
+
+@scalar(inline=True)
+def lanes_sample_diffusion(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
+    """Pass 3 of diffusion with baked lights (vectorised): :func:`lanes_lit_light`,
+    :func:`lanes_diffusion`, :func:`lanes_lit_composite`."""
+    lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+    lanes_diffusion(l32, b32, l64, b64, dfield)
+    lanes_lit_composite(l32, b32, l64, b64, stab)
 
 
 @scalar(inline=True)
@@ -369,6 +387,44 @@ def packet_driver(model):
     hold :data:`N32`/:data:`N64` lane fields per thread. ``model`` is the closure's constant (one
     compiled driver per model, cached on disk apart)."""
 
+    def rows(sample):
+        """The driver's loop with pass 3 ``sample`` (its model's branch chosen here, in Python, so
+        no other model's lane loops are left in the compiled body, even dead)."""
+
+        def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32,
+                        l64):
+            H, W = out_alpha.shape
+            step, ert = march.step, march.ert
+            field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
+            n_rows = (row1 - row0 + TILE - 1) // TILE
+            n_cols = (W + TILE - 1) // TILE
+            n = n_rows * n_cols
+            stride = row_stride(n)
+            for q in prange(n):
+                tq = (q * stride) % n
+                a = tq // n_cols
+                b = tq - a * n_cols
+                b32 = numba.get_thread_id() * (N32 * LANES)
+                b64 = numba.get_thread_id() * (N64 * LANES)
+                j_end = min(row0 + (a + 1) * TILE, row1)
+                for j0 in range(row0 + a * TILE, j_end, SIDE):
+                    for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
+                        packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
+                        while True:
+                            lanes_step(l32, b32, l64, b64, step, ert)
+                            if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64,
+                                         b64) == 0:
+                                break
+                            sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+                        packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
+
+        return packet_rows
+
+    if model == EMISSION_ABSORPTION:
+        return driver(rows(lanes_sample_ea))
+    if model == SINGLE_SCATTERING:
+        return driver(rows(lanes_sample_lit))
+
     def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32, l64):
         H, W = out_alpha.shape
         step, ert = march.step, march.ert
@@ -392,13 +448,7 @@ def packet_driver(model):
                         lanes_step(l32, b32, l64, b64, step, ert)
                         if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
                             break
-                        if model == EMISSION_ABSORPTION:
-                            lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv)
-                        else:
-                            lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
-                            if model == DIFFUSION:
-                                lanes_diffusion(l32, b32, l64, b64, dfield)
-                            lanes_lit_composite(l32, b32, l64, b64, stab)
+                        lanes_sample_diffusion(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)
                     packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
 
     return driver(packet_rows)
