@@ -235,10 +235,10 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
 
 
 @scalar(inline=True)
-def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
+def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
     """Pass 3 (vectorised): every lane samples its full segment with :func:`.medium.step_sample`
-    and composites (an inactive lane adds nothing; ``lights`` and ``grid`` unused: every pass 3
-    takes the same arguments)."""
+    and composites (an inactive lane adds nothing; ``lights``, ``grid`` and ``dfield`` unused: every
+    pass 3 takes the same arguments)."""
     for k in range(LANES):
         a, cr, cg, cb = step_sample(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                                     l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
@@ -305,9 +305,9 @@ def lanes_diffusion(l32, b32, l64, b64, dfield):
 
 
 @scalar(inline=True)
-def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
+def lanes_sample_lit(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
     """Pass 3 of single scattering with baked lights (vectorised): :func:`lanes_lit_light` then
-    :func:`lanes_lit_composite`."""
+    :func:`lanes_lit_composite` (``dfield`` unused)."""
     lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
     lanes_lit_composite(l32, b32, l64, b64, stab)
 
@@ -396,6 +396,7 @@ def packet_driver(model):
             H, W = out_alpha.shape
             step, ert = march.step, march.ert
             field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
+            dfield = diffusion.field
             n_rows = (row1 - row0 + TILE - 1) // TILE
             n_cols = (W + TILE - 1) // TILE
             n = n_rows * n_cols
@@ -415,43 +416,14 @@ def packet_driver(model):
                             if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64,
                                          b64) == 0:
                                 break
-                            sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid)
+                            sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)
                         packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
 
         return packet_rows
 
-    if model == EMISSION_ABSORPTION:
-        return driver(rows(lanes_sample_ea))
-    if model == SINGLE_SCATTERING:
-        return driver(rows(lanes_sample_lit))
-
-    def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32, l64):
-        H, W = out_alpha.shape
-        step, ert = march.step, march.ert
-        field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
-        dfield = diffusion.field
-        n_rows = (row1 - row0 + TILE - 1) // TILE
-        n_cols = (W + TILE - 1) // TILE
-        n = n_rows * n_cols
-        stride = row_stride(n)
-        for q in prange(n):
-            tq = (q * stride) % n
-            a = tq // n_cols
-            b = tq - a * n_cols
-            b32 = numba.get_thread_id() * (N32 * LANES)
-            b64 = numba.get_thread_id() * (N64 * LANES)
-            j_end = min(row0 + (a + 1) * TILE, row1)
-            for j0 in range(row0 + a * TILE, j_end, SIDE):
-                for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
-                    packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
-                    while True:
-                        lanes_step(l32, b32, l64, b64, step, ert)
-                        if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
-                            break
-                        lanes_sample_diffusion(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)
-                    packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
-
-    return driver(packet_rows)
+    sample = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit,
+              DIFFUSION: lanes_sample_diffusion}[model]
+    return driver(rows(sample))
 
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
