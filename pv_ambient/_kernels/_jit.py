@@ -84,16 +84,21 @@ def cuda_options(device=False, inline=False) -> dict:
     return opts
 
 
-def _rebind(fn):
-    """``fn`` with its global names of scalar functions bound to their CUDA device versions."""
+def with_globals(fn, names):
+    """``fn`` with the globals ``names`` (a dict) added or replaced: how a compiled loop is specialised
+    by the functions it calls. Not by a closure over them: Numba's disk cache keys a closure on a
+    pickle of its cells, and a dispatcher's pickle holds an id drawn anew in every process, so a
+    closure over a dispatcher is compiled again in each (docs/architecture.rst, "One kernel per
+    model"); a closure over plain constants (a model id) keeps a stable key."""
     import types
 
-    glob = dict(fn.__globals__)
-    for name in fn.__code__.co_names:
-        obj = glob.get(name)
-        if is_scalar(obj):
-            glob[name] = cuda_device(obj)
-    return types.FunctionType(fn.__code__, glob, fn.__name__, fn.__defaults__, fn.__closure__)
+    return types.FunctionType(fn.__code__, {**fn.__globals__, **names}, fn.__name__, fn.__defaults__, fn.__closure__)
+
+
+def _rebind(fn):
+    """``fn`` with its global names of scalar functions bound to their CUDA device versions."""
+    return with_globals(fn, {name: cuda_device(fn.__globals__[name]) for name in fn.__code__.co_names
+                             if is_scalar(fn.__globals__.get(name))})
 
 
 def cuda_device(disp):

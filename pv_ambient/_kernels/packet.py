@@ -38,7 +38,7 @@ import os
 import numba
 import numpy as np
 
-from ._jit import driver, prange, scalar
+from ._jit import driver, prange, scalar, with_globals
 from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_opacity,
@@ -385,46 +385,41 @@ def packet_driver(model):
     [row0, row1) of an image of a LUT-mode medium, the pixels in :data:`.raycast.TILE`² tiles in
     golden-ratio stride order (as the scalar driver), each tile in 4 × 4 packets; ``l32``/``l64``
     hold :data:`N32`/:data:`N64` lane fields per thread. ``model`` is the closure's constant (one
-    compiled driver per model, cached on disk apart)."""
+    compiled driver per model, cached on disk apart); its pass 3, ``sample``, a global bound here
+    (:func:`._jit.with_globals`), chosen in Python, so no other model's lane loops are left in the
+    compiled body, even dead."""
 
-    def rows(sample):
-        """The driver's loop with pass 3 ``sample`` (its model's branch chosen here, in Python, so
-        no other model's lane loops are left in the compiled body, even dead)."""
+    def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32, l64):
+        H, W = out_alpha.shape
+        step, ert = march.step, march.ert
+        field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
+        dfield = diffusion.field
+        n_rows = (row1 - row0 + TILE - 1) // TILE
+        n_cols = (W + TILE - 1) // TILE
+        n = n_rows * n_cols
+        stride = row_stride(n)
+        for q in prange(n):
+            tq = (q * stride) % n
+            a = tq // n_cols
+            b = tq - a * n_cols
+            b32 = numba.get_thread_id() * (N32 * LANES)
+            b64 = numba.get_thread_id() * (N64 * LANES)
+            j_end = min(row0 + (a + 1) * TILE, row1)
+            for j0 in range(row0 + a * TILE, j_end, SIDE):
+                for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
+                    packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
+                    while True:
+                        lanes_step(l32, b32, l64, b64, step, ert)
+                        if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
+                            break
+                        sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)  # noqa: F821
+                    packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
 
-        def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32,
-                        l64):
-            H, W = out_alpha.shape
-            step, ert = march.step, march.ert
-            field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
-            dfield = diffusion.field
-            n_rows = (row1 - row0 + TILE - 1) // TILE
-            n_cols = (W + TILE - 1) // TILE
-            n = n_rows * n_cols
-            stride = row_stride(n)
-            for q in prange(n):
-                tq = (q * stride) % n
-                a = tq // n_cols
-                b = tq - a * n_cols
-                b32 = numba.get_thread_id() * (N32 * LANES)
-                b64 = numba.get_thread_id() * (N64 * LANES)
-                j_end = min(row0 + (a + 1) * TILE, row1)
-                for j0 in range(row0 + a * TILE, j_end, SIDE):
-                    for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
-                        packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
-                        while True:
-                            lanes_step(l32, b32, l64, b64, step, ert)
-                            if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64,
-                                         b64) == 0:
-                                break
-                            sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)
-                        packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
+    return driver(with_globals(packet_rows, {"sample": PASS3[model]}))
 
-        return packet_rows
 
-    sample = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit,
-              DIFFUSION: lanes_sample_diffusion}[model]
-    return driver(rows(sample))
-
+#: Each packet model's pass 3 (:func:`packet_driver`).
+PASS3 = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit, DIFFUSION: lanes_sample_diffusion}
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
 PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING, DIFFUSION)}
