@@ -13,9 +13,11 @@ def pack_for_march(solution, g) -> np.ndarray:
     radiance has no flux term (the march then reads a quarter of the memory)."""
     from ..._kernels.raycast import diffusion_layout
 
-    packed = solution.packed()
-    if g == 0.0:  # no flux term in the radiance (raycast.diffusion_light): φ alone
-        packed = packed[..., 0::4]
+    if g == 0.0:  # no flux term in the radiance (raycast.diffusion_light): φ alone, F never packed
+        phi = solution.phi if solution.phi.ndim == 4 else solution.phi[..., None]
+        packed = phi.astype(np.float32)
+    else:
+        packed = solution.packed()
     n, nch = diffusion_layout(packed.shape[3])  # values per channel, channels
     if nch == 3 and np.array_equal(packed[..., 0:n], packed[..., n:2 * n]) and np.array_equal(
             packed[..., 0:n], packed[..., 2 * n:]):

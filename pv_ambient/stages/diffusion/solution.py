@@ -65,8 +65,10 @@ class DiffusionSolution:
         (φ_c, Fx_c, Fy_c, Fz_c)`` (world components); C = 1 for a single-channel solution."""
         phi = self.phi if self.phi.ndim == 4 else self.phi[..., None]
         F = self.flux if self.flux.ndim == 5 else self.flux[..., None, :]
-        out = np.concatenate([phi[..., None], F], axis=-1)  # (nx, ny, nz, C, 4)
-        return np.ascontiguousarray(out.reshape(out.shape[:3] + (-1,)), dtype=dtype)
+        out = np.empty(phi.shape + (4,), dtype)  # (nx, ny, nz, C, 4), written in place: no float64 copy
+        out[..., 0] = phi
+        out[..., 1:] = F
+        return out.reshape(out.shape[:3] + (-1,))
 
     def at(self, points):
         """φ and F trilinear at data-index points ``points`` (N, 3), clamped to the grid.
