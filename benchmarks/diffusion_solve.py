@@ -16,11 +16,16 @@ light at the centre; its :class:`speed.Frames` builds it). Two tables, each from
   "first frame" row) and a diffusion relight (the light moved by 0.02, speed.py's "relight" row
   for the diffusion model) at ``--size``², the medians of ``--repeats`` after a warm-up frame, and
   the stage time: the frame less the camera pass (the median of camera moves by 1°, caches warm).
+* **tolerance** (``--tols``) — per solver tolerance (set as the balanced preset's ``diffusion_tol``),
+  in one process with the most threads: the CG iterations, the diffusion stage's seconds (medians of
+  ``--repeats``, the tolerances interleaved) and the frame's 4×4-block error and bias against the one
+  solved to the first tolerance (docs/diffusion.rst, "Solver tolerance").
 
 Usage (from the repository root)::
 
     python benchmarks/diffusion_solve.py [--n 256] [--size 512] [--repeats 3] [--threads 1,2] [--frames]
-        [--compare OTHER_CHECKOUT] [--skip-profile] [--out benchmarks/results/diffusion_profile.txt]
+        [--compare OTHER_CHECKOUT] [--skip-profile] [--tols 1e-6,1e-4,1e-3,1e-2]
+        [--out benchmarks/results/diffusion_profile.txt]
 
 ``--compare``: the largest difference of one light's φ (``solve_for_light`` as the stage calls
 it) between another checkout of the project (e.g. ``git worktree add /tmp/old <commit>``) and
@@ -194,6 +199,46 @@ def frames_child(n, size, repeats):
     return out
 
 
+def tols_child(n, size, tols, repeats):
+    """Per solver tolerance (the quality preset's ``diffusion_tol``, set on the balanced preset): CG
+    iterations, the diffusion stage's seconds (median of ``repeats`` new renderers, the tolerances
+    interleaved) and the 4×4-block error of the frame against the one solved to the first tolerance
+    (the point light's window masked, as the trade's errors are)."""
+    import scenes
+    import speed
+
+    import pv_ambient as pa
+    from pv_ambient import metrics
+    from pv_ambient.rendering.presets import QUALITY_PRESETS
+
+    fr = speed.Frames(n, (size, size))
+    fr.render(fr.renderer, "SS", fr.cam)  # light volumes, compiled kernels
+    mask = metrics.light_mask((size, size), fr.cam, (size, size), [fr.light])
+    out, ref, secs = {}, None, {tol: [] for tol in tols}
+    for _ in range(repeats):
+        for tol in tols:
+            QUALITY_PRESETS["balanced"]["diffusion_tol"] = tol
+            r = pa.Renderer(fr.grid, backend="cpu", transfer_function=speed.transfer_function(), lights=[fr.light])
+            r.cache.share(fr.renderer.cache, kinds=("majorant", "light_grid", "sigma_l", "tau", "reaches", "scatters",
+                                                    "scattering_nodes"))
+            res = fr.render(r, "diffusion", fr.cam)
+            img = np.asarray(res.radiance, np.float64)
+            ref = img if ref is None else ref
+            secs[tol].append(sum(v for k, v in r.timings.items() if k.startswith("diffusion")))
+            out[tol] = dict(tol=tol, iterations=res.metadata["diffusion_solver"]["iterations"],
+                            block=metrics.block_relative_rmse(img, ref, mask),
+                            bias=metrics.relative_bias(img, ref, mask))
+    del scenes
+    return [dict(out[tol], seconds=float(np.median(secs[tol]))) for tol in tols]
+
+
+def tols_table(rows, tols):
+    lines = [f"  {'tol':>8s} {'CG its':>7s} {'solve s':>8s} {'block err':>10s} {'bias':>9s}   (against tol {tols[0]:g})"]
+    lines += [f"  {r['tol']:>8g} {r['iterations']:>7d} {r['seconds']:>8.2f} {r['block']:>10.5f} {r['bias']:>+9.5f}"
+              for r in rows]
+    return lines
+
+
 def phi_child(n, path):
     """One light's solve as the stage runs it (``solve_for_light``); φ saved to ``path``."""
     import speed
@@ -300,7 +345,12 @@ def main(argv=None):
     ap.add_argument("--child-phi", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--phi-path", help=argparse.SUPPRESS)
     ap.add_argument("--child-frames", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--tols", help="comma-separated solver tolerances: the tolerance table (the first is the reference)")
+    ap.add_argument("--child-tols", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.child_tols:
+        print(json.dumps(tols_child(args.n, args.size, [float(t) for t in args.tols.split(",")], args.repeats)))
+        return
     if args.child_profile:
         print(json.dumps(profile_child(args.n, args.repeats)))
         return
@@ -325,6 +375,12 @@ def main(argv=None):
         sets = [(label, {t: run_child(args, t, "profile", pythonpath=root) for t in counts}) for label, root in roots]
         lines += ["one light's diffusion solve, by phase (s; 1→t: the speed-up):"] + profile_table(sets, counts)
         print("\n".join(lines), flush=True)
+    if args.tols:
+        tols = [float(t) for t in args.tols.split(",")]
+        rows = run_child(args, counts[-1], "tols", extra=["--tols", args.tols])
+        lines += ["", f"the solver's tolerance, diffusion at {args.size}², {counts[-1]} threads (one process, light "
+                  "volumes shared, medians of --repeats):"] + tols_table(rows, tols)
+        print("\n".join(lines[-len(rows) - 2:]), flush=True)
     if args.frames:
         sets = [(label, {t: run_child(args, t, "frames", pythonpath=root) for t in counts}) for label, root in roots]
         lines += ["", f"diffusion frames at {args.size}² (s):"] + frames_table(sets, counts)

@@ -18,7 +18,7 @@ import numpy as np
 from .._kernels import records as K
 from .. import backend
 from ..inputs.lights import pack_lights
-from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS
+from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS, QUALITY_PRESETS
 from .request import stage_bar
 from .result import RenderResult
 from .scene_stages import NO_GRID
@@ -71,7 +71,8 @@ def _diffusion(renderer, req, options, inputs):
     with stage_bar(req.progress_bar, "diffusion solve") as bar:
         inputs.diffusion, info = renderer.stages.diffusion(
             inputs.lights, inputs.grid, req.phase, flux_limited=options.get("flux_limited", False),
-            progress_bar=req.progress_bar is True, backend=req.backend, sweep_orders=options.get("sweep_orders", 0))
+            progress_bar=req.progress_bar is True, backend=req.backend, sweep_orders=options.get("sweep_orders", 0),
+            tol=QUALITY_PRESETS[req.quality]["diffusion_tol"])
         if info is not None:
             bar.set_postfix_str(f"{info['iterations']} iterations, residual {info['residual']:.2g}")
         inputs.diffusion_info = info

@@ -261,7 +261,7 @@ class SceneStages:
         return self.cache[key]
 
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
-                  sweep_orders=0):
+                  sweep_orders=0, tol=None):
         """The multiply-scattered light of ``lights`` packed for the camera pass, and its solve's
         information: ``(field, info)`` — the field as
         :func:`pv_ambient.stages.diffusion.packing.pack_for_march` packs it, summed over the lights,
@@ -272,14 +272,16 @@ class SceneStages:
         and plain and flux-limited solves start warm (:meth:`warm_start`). σt and albedo are
         checked and converted once per scene; each light's optical depth comes from
         :meth:`optical_depth` on the light grid of ``grid``'s factor; ``sweep_orders``: the first
-        scattering orders by transport sweeps (docs/diffusion.rst §5)."""
+        scattering orders by transport sweeps (docs/diffusion.rst §5); ``tol``: the relative residual
+        at which the solve stops (the quality preset's ``diffusion_tol``; None: the solver's default)."""
         from ..stages.diffusion.packing import add_packed
 
         g = float(phase.mean_cosine)
         sweep = int(sweep_orders)
         # the sweeps need the phase function itself, plain diffusion only its mean cosine
+        tol = None if tol is None else float(tol)  # None: the solver's default
         keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited))
-                     + ((sweep, phase.canonical()) if sweep else ()) for lt in lights)
+                     + ((sweep, phase.canonical()) if sweep else ()) + (tol,) for lt in lights)
         if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
             return self.cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
         total, info = None, None
@@ -287,7 +289,7 @@ class SceneStages:
             if key not in self.cache:
                 x0 = None if sweep else self.warm_start(lt, lights, key)
                 self.cache[key] = self._timed(f"diffusion {lt}", lambda: self._solve(
-                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend, x0))
+                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend, x0, tol))
                 if not sweep:
                     self.cache[("diffusion_start",) + key[1:]] = self.cache[key][0]
             part, info = self.cache[key]
@@ -316,7 +318,7 @@ class SceneStages:
             return None
         return packed_phi(packed)
 
-    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None):
+    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None, tol=None):
         from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light
         from ..stages.diffusion.packing import pack_for_march
 
@@ -328,6 +330,8 @@ class SceneStages:
                 self.optics.sigma_grid(), self.optics.albedo_grid()))
         lgrid = self.light_grid(grid.factor)
         extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
+        if tol is not None:
+            extra["tol"] = tol
         sol = solve_for_light(light, phase if sweep else g, medium=medium, geometry=self.geometry,
                               tau=self.optical_depth(light, lgrid, backend), light_grid=lgrid,
                               flux_limited=flux_limited, progress_bar=progress_bar, x0=x0, **extra)

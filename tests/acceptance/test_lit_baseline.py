@@ -37,8 +37,17 @@ def test_radiance_with_explicit_lights_equals_0_2_0():
     # table's second-order term: at most 1.2e-6 of the brightest pixel here; the bound, 1e-5, is a
     # tenth of the 1e-4 that the CPU camera pass may move an image where nothing is approximated.
     tol = 1e-5
+    # By design since 0.4.0's per-preset solver tolerance (docs/diffusion.rst, "Solver tolerance"): the
+    # diffusion solve of a balanced render stops at a relative residual of 1e-3, not 1e-6, so diffusion's
+    # images (and auto's, which picks it here) move by at most 1.3e-4 of the brightest pixel here; the
+    # bound is the tolerance itself.
+    solve_tol = 1e-3
+
+    def bound(k):
+        return solve_tol if ("diffusion" in k or "auto" in k) else tol
+
     moved = [k for k in saved.files if k not in by_design
-             and np.abs(saved[k].astype(np.float64) - new[k]).max() > tol * float(np.abs(saved[k]).max())]
+             and np.abs(saved[k].astype(np.float64) - new[k]).max() > bound(k) * float(np.abs(saved[k]).max())]
     assert not moved, f"radiance changed: {moved}"
     assert all(float(saved[k].max()) > 0 for k in saved.files if "radiance" in k)  # nothing trivially black
     name, vol, tf, lights, g, cam = mod.scenes()[0]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pv_ambient.inputs.lights import PointLight
-from ..helpers import physical_grid, rel, render, renderer
+from ..helpers import CAM, physical_grid, rel, render, renderer
 
 
 def test_albedo_zero_is_single_scattering():
@@ -121,3 +121,29 @@ def test_isotropic_phase_keeps_the_fluence_alone_and_renders_the_same():
     assert iso.max() > 0
     render(r, "diffusion", phase=0.5)
     assert {r.cache[k][0].shape[3] for k in r.cache if k[0] == "diffusion" and k[3] == 0.5} <= {4, 12}
+
+
+def test_each_quality_solves_to_its_own_tolerance(monkeypatch):
+    """Why: the quality preset sets the relative residual at which the diffusion solve stops
+    (``diffusion_tol``, docs/diffusion.rst "Solver tolerance"). Each render reports a residual
+    within its preset's tolerance, a looser one stops after fewer iterations, and the balanced
+    preset's picture stays within 1e-4 (4×4-block error) of the one solved to 1e-6."""
+    from pv_ambient import metrics
+    from pv_ambient.rendering.presets import QUALITY_PRESETS
+
+    grid = physical_grid(n=21)
+    its = {}
+    for quality in ("accurate", "balanced", "preview"):
+        res = renderer(grid).render(camera=CAM, window_size=(24, 24), model="diffusion", quality=quality,
+                                    light_resolution=1.0, step=0.05)
+        info = res.metadata["diffusion_solver"]
+        assert info["converged"] and info["residual"] <= QUALITY_PRESETS[quality]["diffusion_tol"]
+        its[quality] = info["iterations"]
+        if quality == "balanced":
+            balanced = res.radiance.astype(np.float64)
+    assert its["preview"] < its["balanced"] < its["accurate"]
+    monkeypatch.setitem(QUALITY_PRESETS["balanced"], "diffusion_tol", 1e-6)
+    tight = renderer(grid).render(camera=CAM, window_size=(24, 24), model="diffusion", quality="balanced",
+                                  light_resolution=1.0, step=0.05)
+    assert tight.metadata["diffusion_solver"]["iterations"] > its["balanced"]
+    assert metrics.block_relative_rmse(balanced, tight.radiance.astype(np.float64)) <= 1e-4

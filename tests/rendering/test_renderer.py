@@ -68,7 +68,7 @@ def test_auto_rules():
     res = r.render(camera=CAM, window_size=SIZE, model="auto")
     assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is False
     assert res.metadata["sweep_orders"] == 0
-    assert any(k[0] == "diffusion" and k[-1] is False for k in r.cache)
+    assert any(k[0] == "diffusion" and k[4] is False for k in r.cache)
 
 
 def test_choose_model_decides_auto_and_leaves_other_models_alone():

@@ -79,10 +79,19 @@ def _phi(packed):
     return packed[..., 0::diffusion_layout(packed.shape[3])[0]].astype(np.float64)
 
 
-def test_relight_starts_warm_from_the_moved_light():
+def tight_solves(monkeypatch):
+    """The preview preset (the helpers' render) solving to 1e-6, so that two solves of one light agree to
+    ~1e-6 whatever they start from."""
+    from pv_ambient.rendering.presets import QUALITY_PRESETS
+
+    monkeypatch.setitem(QUALITY_PRESETS["preview"], "diffusion_tol", 1e-6)
+
+
+def test_relight_starts_warm_from_the_moved_light(monkeypatch):
     """A relight's solve starts from the moved light's solution (docs/diffusion.rst, "Warm starts"):
     fewer CG iterations than the cold solve of the same light in a new renderer, and the same φ
     within what the stopping tolerance (relative residual 1e−6) allows."""
+    tight_solves(monkeypatch)
     grid = physical_grid(n=33)
     light = PointLight((0.3, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
     moved = PointLight((0.34, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
@@ -99,10 +108,11 @@ def test_relight_starts_warm_from_the_moved_light():
     assert rel(_phi(warm_field), _phi(cold_field)) < 1e-5
 
 
-def test_transfer_function_change_starts_warm_from_the_shared_solution():
+def test_transfer_function_change_starts_warm_from_the_shared_solution(monkeypatch):
     """A renderer of other optics on the same grid that shares the ``diffusion_start`` entries
     starts each light's solve from that light's previous solution: fewer iterations than cold, the
-    same φ within the tolerance; a colour change through ``with_optics`` carries them over."""
+    same φ within the tolerance (1e-6); a colour change through ``with_optics`` carries them over."""
+    tight_solves(monkeypatch)
     grid = physical_grid(n=33)
     light = [LIGHTS[0]]
     r = renderer(grid, light)
