@@ -18,6 +18,8 @@ Scalar functions here allocate nothing and never validate (the Python layer,
 
 from __future__ import annotations
 
+import numpy as np
+
 from ._jit import driver, prange, scalar
 
 
@@ -204,3 +206,39 @@ def mean_extinction_grid(S, ax, ay, az, out):
             k0, k1, c0, c1, c2, c3 = _mean_stencil(float(k), az, nz)
             m = _contract(S, i0, i1, a0, a1, a2, a3, j0, j1, b0, b1, b2, b3, k0, k1, c0, c1, c2, c3)
             out[i, j, k] = m if m > 0.0 else 0.0
+
+
+@driver
+def ball_albedo(sbar, ms, out):
+    """``out = clip(ms / sbar, 0, 1)`` where σ̄ = ``sbar`` > 0, else 0: the ball's mean albedo of one
+    channel from its mean scattering ``ms`` (float32 arrays of one shape; one pass, no temporaries)."""
+    nx, ny, nz = out.shape
+    for r in prange(nx * ny):
+        i = r // ny
+        j = r - i * ny
+        for k in range(nz):
+            s = sbar[i, j, k]
+            v = ms[i, j, k] / s if s > 0.0 else 0.0
+            out[i, j, k] = min(max(v, 0.0), 1.0)
+
+
+@driver
+def positive_range(ball):
+    """(min, max) of channels 1–3 of ``ball`` (nx, ny, nz, 4) over the samples whose channel 0 is
+    positive; (inf, −inf) when there are none."""
+    nx, ny, nz = ball.shape[0], ball.shape[1], ball.shape[2]
+    lo = np.full(nx, np.inf)
+    hi = np.full(nx, -np.inf)
+    for i in prange(nx):
+        a = np.inf
+        b = -np.inf
+        for j in range(ny):
+            for k in range(nz):
+                if ball[i, j, k, 0] > 0.0:
+                    for c in range(1, 4):
+                        v = ball[i, j, k, c]
+                        a = min(a, v)
+                        b = max(b, v)
+        lo[i] = a
+        hi[i] = b
+    return lo.min(), hi.max()

@@ -14,23 +14,30 @@ def ball_grid(sigma, albedo, spacing, radius) -> np.ndarray:
 
     ``sigma`` is σt on the samples (nx, ny, nz), ``albedo`` the albedo (nx, ny, nz, 3). A grey
     albedo takes one box mean for every channel."""
+    from .._kernels.sat import ball_albedo
+
     out = np.zeros(sigma.shape + (4,), np.float32)
-    out[..., 0] = mean_extinction(sigma, spacing, radius)
+    sbar = mean_extinction(sigma, spacing, radius)
+    out[..., 0] = sbar
+    abar = np.empty(sigma.shape, np.float32)
     for c in range(3):
         if c > 0 and np.array_equal(albedo[..., c], albedo[..., c - 1]):
             out[..., 1 + c] = out[..., c]  # grey albedo: one box mean serves every channel
             continue
-        ms = mean_extinction(np.ascontiguousarray(sigma * albedo[..., c]), spacing, radius)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out[..., 1 + c] = np.where(out[..., 0] > 0, np.clip(ms / out[..., 0], 0.0, 1.0), 0.0)
+        ball_albedo(sbar, mean_extinction(np.multiply(sigma, albedo[..., c]), spacing, radius), abar)
+        out[..., 1 + c] = abar
     return out
 
 
 def albedo_range(ball) -> tuple:
     """(min, max) of the ball-mean albedo ā over the medium (where σ̄ > 0), all channels; (0, 0)
     without a medium."""
-    a = ball[..., 1:4][ball[..., 0] > 0]
-    return (float(a.min()), float(a.max())) if a.size else (0.0, 0.0)
+    from .._kernels.sat import positive_range
+
+    if ball.size == 0:
+        return (0.0, 0.0)
+    lo, hi = positive_range(np.ascontiguousarray(ball))
+    return (float(lo), float(hi)) if lo <= hi else (0.0, 0.0)
 
 
 def ball_inside(ball, spacing, radius) -> np.ndarray:
