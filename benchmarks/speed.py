@@ -8,12 +8,19 @@ Scene: ``supernova_centre`` of benchmarks/scenes.py at ``--n``³ (the synthetic 
 
 * camera move — EA, single scattering (SS), ambient scattering (AS, Beer–Lambert), diffusion: every
   cache warm, the camera turned by 1° per frame (only the ray cast runs);
-* relight — SS and AS: the light moves by 0.02 (a new position each frame), the moved light's volumes
-  are rebuilt, then the ray cast;
+* relight — SS, AS and diffusion: the light moves by 0.02 (a new position each frame), the moved
+  light's volumes are rebuilt, then the ray cast; and AS with two lights, one of them moved (the
+  other's volumes reused);
 * TF change — AS: a new ``Renderer`` of another density scale that shares the preintegrated table
   slices (``cache.share``: the disk cache's role), then its first frame;
-* first frame — SS, AS, diffusion: a new ``Renderer`` (classification included) and its first frame,
-  table slices shared as above; Numba compiled beforehand (the warm-up frame).
+* first frame — SS, AS, diffusion and ``model="auto", quality="accurate"`` ("auto accurate", at
+  that preset's own step; its camera move is a row too): a new ``Renderer`` (classification
+  included) and its first frame, table slices shared as above; Numba compiled beforehand (the
+  warm-up frame).
+
+The camera moves' targets are frame ratios (the CPU camera pass's goals); the other rows' are on
+the *stage*, the frame less the same model's camera move in this run, in VTK frames (the
+first-frame work's goals): both are printed.
 
 Every row alternates one VTK ``fixed_point`` frame (benchmarks/timing.py's peer: same TF, camera and
 step; a camera that does not move is turned a little every other frame, or VTK would not re-render)
@@ -27,7 +34,7 @@ cast's segments in non-empty majorant blocks up to early termination — counted
 with the kernels' own scalar functions. Before the table the count is checked on a tiny scene against
 a brute-force NumPy march (:func:`brute_force_count`) and against the ray cast's own alpha.
 
-Options: ``--threads-scaling`` re-runs the camera-move and relight rows in subprocesses with
+Options: ``--threads-scaling`` re-runs the camera-move and relight rows and diffusion's first frame in subprocesses with
 NUMBA_NUM_THREADS = each of ``--threads`` (default 1,2) and prints the speed-ups over one thread
 (``--scaling-only``: that table alone, into ``speed_threads_n{N}.txt``; it needs neither pyvista nor
 vtk, for a many-core machine that lacks them); ``--memory`` renders AS with two lights in a fresh
@@ -77,19 +84,30 @@ SCENE = "supernova_centre"  # benchmarks/scenes.py
 MODELS = {"EA": "emission_absorption", "SS": "single_scattering", "AS": "ambient_scattering",
           "diffusion": "diffusion"}
 
-# (row, kind, model, target ratio): the camera moves' targets are the CPU camera pass's goals
-# (docs/performance.rst, "CPU camera pass", measures them), the other rows' the speed table's
+#: Render options per row model beyond speed.py's scene: "auto accurate" is ``model="auto"`` with
+#: ``quality="accurate"`` and that preset's own step (no explicit step).
+MODEL_OPTIONS = {"auto accurate": {"quality": "accurate"}}
+ROW_MODELS = {**MODELS, "auto accurate": "auto"}
+
+# (row, kind, model, target ratio, stage target): the camera moves' targets are the CPU camera pass's
+# goals (frame / VTK frame); the other rows' are the first-frame work's, on the stage — the frame less
+# the camera move of the same model measured in the same run, in VTK frames (docs/performance.rst,
+# "CPU speed")
 ROWS = [
-    ("emission-absorption, camera move", "camera", "EA", 1.5),
-    ("single scattering, camera move", "camera", "SS", 2.0),
-    ("ambient scattering, camera move", "camera", "AS", 2.5),
-    ("diffusion, camera move", "camera", "diffusion", 2.5),
-    ("relight (one light moved), SS", "relight", "SS", 5.0),
-    ("relight (one light moved), AS", "relight", "AS", 5.0),
-    ("TF change, AS", "tf", "AS", 10.0),
-    ("first frame, SS", "first", "SS", 10.0),
-    ("first frame, AS", "first", "AS", 10.0),
-    ("first frame, diffusion", "first", "diffusion", 30.0),
+    ("emission-absorption, camera move", "camera", "EA", 1.5, None),
+    ("single scattering, camera move", "camera", "SS", 2.0, None),
+    ("ambient scattering, camera move", "camera", "AS", 2.5, None),
+    ("diffusion, camera move", "camera", "diffusion", 2.5, None),
+    ("auto accurate, camera move", "camera", "auto accurate", None, None),
+    ("relight (one light moved), SS", "relight", "SS", None, 2.0),
+    ("relight (one light moved), AS", "relight", "AS", None, 2.0),
+    ("relight (one of two moved), AS", "relight2", "AS", None, 2.0),
+    ("relight (one light moved), diffusion", "relight", "diffusion", None, None),
+    ("TF change, AS", "tf", "AS", None, 5.0),
+    ("first frame, SS", "first", "SS", None, 4.0),
+    ("first frame, AS", "first", "AS", None, 5.0),
+    ("first frame, diffusion", "first", "diffusion", None, 12.0),
+    ("first frame, auto accurate", "first", "auto accurate", None, 60.0),
 ]
 
 
@@ -143,8 +161,10 @@ class Frames:
         self.moves = 0  # every relight goes to a position never used before (no cached volume)
 
     def render(self, renderer, model, camera):
-        return renderer.render(camera=camera, window_size=self.size, model=MODELS[model], step=self.step,
-                               **self.options)
+        opts = {"step": self.step, **self.options, **MODEL_OPTIONS.get(model, {})}
+        if model in MODEL_OPTIONS:
+            opts.pop("step")  # the preset's own step
+        return renderer.render(camera=camera, window_size=self.size, model=ROW_MODELS[model], **opts)
 
     def camera_of(self, kind, k):
         """The camera of frame k of a row: turned 1° per frame for a camera move, else fixed (VTK's
@@ -161,6 +181,16 @@ class Frames:
                 r.set_lights([light_at(0.02 * self.moves, self.light)])
                 self.render(r, model, self.cam)
             return relight
+        if kind == "relight2":
+            second = pa.PointLight((0.3, -0.2, 0.1), intensity=2.0)
+            r2 = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(), lights=[self.light, second])
+            r2.cache.share(r.cache)
+
+            def relight2(k):  # the first light moves, the second stays: its volumes are reused
+                self.moves += 1
+                r2.set_lights([light_at(0.02 * self.moves, self.light), second])
+                self.render(r2, model, self.cam)
+            return relight2
         if kind == "tf":
             def tf_change(k):
                 self.moves += 1
@@ -334,37 +364,44 @@ def check_count(n=48, size=(48, 40)):
 
 # --- the table ----------------------------------------------------------------------------------
 
-def measure_rows(frames, vtk, repeats, kinds=None, models=None, count=True):
-    """Dicts per row (of ``kinds`` and ``models`` when given): ours, VTK, samples (camera moves when
-    ``count``; nan otherwise). Each row interleaves ``vtk``'s frames (benchmarks/timing.py) from the
-    row's cameras with ours."""
+def measure_rows(frames, vtk, repeats, kinds=None, models=None, count=True, keep=None):
+    """Dicts per row (of ``kinds`` and ``models`` when given, and where ``keep(kind, model)`` when
+    given): ours, VTK, samples (camera moves at speed.py's step when ``count``; nan otherwise). Each
+    row interleaves ``vtk``'s frames (benchmarks/timing.py) from the row's cameras with ours."""
     out = []
     threads = numba.get_num_threads()
-    for name, kind, model, target in ROWS:
-        if (kinds and kind not in kinds) or (models and model not in models):
+    for name, kind, model, target, stage_target in ROWS:
+        if (kinds and kind not in kinds) or (models and model not in models) or (keep and not keep(kind, model)):
             continue
         ours, theirs = interleaved(vtk, frames.frame_fn(kind, model), lambda k: frames.camera_of(kind, k), repeats)
         samples = float("nan")
-        if kind == "camera" and count:
+        if kind == "camera" and count and model not in MODEL_OPTIONS:
             samples = float(np.mean([sample_counts(frames.renderer, frames.camera_of(kind, k), frames.size,
                                                    frames.step)[0].sum() for k in range(1, repeats + 1)]))
-        out.append(dict(row=name, kind=kind, model=model, target=target, ours=ours, vtk=theirs, samples=samples,
-                        ns=ours * threads / samples * 1e9))
+        out.append(dict(row=name, kind=kind, model=model, target=target, stage_target=stage_target, ours=ours,
+                        vtk=theirs, samples=samples, ns=ours * threads / samples * 1e9))
         print(f"  measured {name}: {ours:.3f} s (VTK {theirs:.3f} s)", flush=True)
     return out
 
 
 def format_table(rows):
-    head = (f"{'frame':34s} {'ours s':>8} {'VTK s':>8} {'ours/VTK':>9} {'target':>7} {'met':>4}"
+    """The table: per row our frame, VTK's, their ratio; for the other rows also the stage (our frame
+    less the camera move of the same model in this run) in VTK frames; each against its target."""
+    camera = {d["model"]: d["ours"] for d in rows if d["kind"] == "camera"}
+    head = (f"{'frame':38s} {'ours s':>8} {'VTK s':>8} {'ours/VTK':>9} {'stage/VTK':>9} {'target':>7} {'met':>4}"
             f" {'ns/sample/thread':>17} {'samples (M)':>11}")
     lines = [head, "-" * len(head)]
     for d in rows:
         ratio = d["ours"] / d["vtk"]
         ns = f"{d['ns']:.1f}" if np.isfinite(d["ns"]) else ""
         ms = f"{d['samples'] / 1e6:.2f}" if np.isfinite(d["samples"]) else ""
-        target = "≤" + format(d["target"], "g")
-        lines.append(f"{d['row']:34s} {d['ours']:>8.3f} {d['vtk']:>8.3f} {ratio:>9.2f} {target:>7}"
-                     f" {'yes' if ratio <= d['target'] else 'no':>4} {ns:>17} {ms:>11}")
+        stage = (d["ours"] - camera[d["model"]]) / d["vtk"] if d["kind"] != "camera" and d["model"] in camera else None
+        value, goal = (ratio, d["target"]) if d["target"] is not None else (stage, d["stage_target"])
+        target = "" if goal is None else "≤" + format(goal, "g")
+        met = "" if goal is None or value is None else ("yes" if value <= goal else "no")
+        stage_s = "" if stage is None else f"{stage:.2f}"
+        lines.append(f"{d['row']:38s} {d['ours']:>8.3f} {d['vtk']:>8.3f} {ratio:>9.2f} {stage_s:>9} {target:>7}"
+                     f" {met:>4} {ns:>17} {ms:>11}")
     return lines
 
 
@@ -391,9 +428,9 @@ def threads_scaling(args):
         print(f"  thread scaling: {t} thread(s) done", flush=True)
     lines = [f"thread scaling (ours only, subprocesses with NUMBA_NUM_THREADS = {', '.join(map(str, counts))};"
              f" {os.cpu_count()} cores; targets 1 → 2 ≥ 1.8×, 1 → 16 ≥ 12×):",
-             f"  {'frame':34s} {'1 thread s':>10}" + "".join(f" {f'{t} thr s':>9} {'×':>6}" for t in counts[1:])]
+             f"  {'frame':38s} {'1 thread s':>10}" + "".join(f" {f'{t} thr s':>9} {'×':>6}" for t in counts[1:])]
     for i, a in enumerate(runs[1]):
-        row = f"  {a['row']:34s} {a['ours']:>10.3f}"
+        row = f"  {a['row']:38s} {a['ours']:>10.3f}"
         for t in counts[1:]:
             b = runs[t][i]
             row += f" {b['ours']:>9.3f} {a['ours'] / b['ours']:>6.2f}"
@@ -586,8 +623,9 @@ def main(argv=None):
         return write_result(args, "speed_threads", lines)
     frames = make_frames(args.n, size)
     grid = frames.grid
-    if args.child_rows:
-        rows = measure_rows(frames, None, args.repeats, kinds=("camera", "relight"))
+    if args.child_rows:  # the camera moves and relights, and diffusion's first frame
+        rows = measure_rows(frames, None, args.repeats, kinds=("camera", "relight", "first"),
+                            keep=lambda kind, model: model != "auto accurate" and (kind != "first" or model == "diffusion"))
         print(json.dumps([{"row": d["row"], "ours": d["ours"]} for d in rows]))
         return None
 
