@@ -102,6 +102,18 @@ def baked_light(x, y, z, wx, wy, wz, lights, grid):
 INV_4PI = 0.07957747154594767
 
 
+@scalar(inline=True)
+def diffusion_layout(n):
+    """``(per, nch)`` of a diffusion field with ``n`` values per sample: ``per`` values per channel
+    (4: φ and the flux F; 1: φ alone) and ``nch`` channels (3 coloured, 1 grey) — n = 12, 4, 3 or 1.
+
+    >>> diffusion_layout(12), diffusion_layout(4), diffusion_layout(3), diffusion_layout(1)
+    ((4, 3), (4, 1), (1, 3), (1, 1))
+    """
+    per = 4 if n % 4 == 0 else 1
+    return per, n // per
+
+
 @scalar(force_inline=True)
 def diffusion_grey(field, x, y, z):
     """``max(φ, 0)/4π`` of a grey diffusion field (``field``: (nx, ny, nz, n) on the data samples,
@@ -127,11 +139,10 @@ def diffusion_rgb(field, per, x, y, z):
 def diffusion_baked(field, x, y, z):
     """The diffusion field's ``max(φ_c, 0)/4π`` (rgb) at index-space point (x, y, z) for baked lights
     (an isotropic phase function: the radiance has no flux term, so only φ is read); the field's
-    layout as :func:`.raycast.diffusion_layout` (φ at every ``per``-th value)."""
-    n = field.shape[3]
-    per = 4 if n % 4 == 0 else 1
+    layout as :func:`diffusion_layout` (φ at every ``per``-th value)."""
+    per, nch = diffusion_layout(field.shape[3])
     px, py, pz = np.float32(x), np.float32(y), np.float32(z)
-    if n == per:  # one channel: grey
+    if nch == 1:  # one channel: grey
         v = diffusion_grey(field, px, py, pz)
         return v, v, v
     return diffusion_rgb(field, per, px, py, pz)

@@ -44,7 +44,7 @@ from .majorant import block_at, block_span
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_opacity,
                      step_sample)
 from .models import AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
-from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_rgb, grid_point, point_weight
+from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_layout, diffusion_rgb, grid_point, point_weight
 from .raycast import STREAM_JITTER, TILE, index_ray, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
@@ -286,9 +286,8 @@ def lanes_diffusion(l32, b32, l64, b64, dfield):
     """Pass 3 of diffusion with baked lights (vectorised), between the light and the compositing:
     the diffusion field's φ/4π at every lane's sample added to its light (:func:`.baked.diffusion_baked`'s
     terms; one loop per layout, so no branch is left inside them)."""
-    n = dfield.shape[3]
-    per = 4 if n % 4 == 0 else 1
-    if n == per:
+    per, nch = diffusion_layout(dfield.shape[3])
+    if nch == 1:
         for k in range(LANES):
             v = diffusion_grey(dfield, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
                                l32[np.uint64(b32 + Z * LANES + k)])

@@ -27,7 +27,7 @@ from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
-from .baked import baked_light, diffusion_baked
+from .baked import baked_light, diffusion_baked, diffusion_layout
 from .medium import (MODE_GRID, MODE_LUT, full_segment, lut_coords, lut_value, step_albedo_emission, step_column,
                      step_lookup, step_opacity)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
@@ -277,18 +277,6 @@ def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, amb
         fb = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 2))
     dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
     return er * fr * dr, eg * fg * dg, eb * fb * db
-
-
-@scalar(inline=True)
-def diffusion_layout(n):
-    """``(per, nch)`` of a diffusion field with ``n`` values per sample: ``per`` values per channel
-    (4: φ and the flux F; 1: φ alone) and ``nch`` channels (3 coloured, 1 grey) — n = 12, 4, 3 or 1.
-
-    >>> diffusion_layout(12), diffusion_layout(4), diffusion_layout(3), diffusion_layout(1)
-    ((4, 3), (4, 1), (1, 3), (1, 1))
-    """
-    per = 4 if n % 4 == 0 else 1
-    return per, n // per
 
 
 @scalar
