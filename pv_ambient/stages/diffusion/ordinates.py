@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from ..._kernels.phase import ISOTROPIC
 from ...inputs.validation import check_int
 
 __all__ = ["DEFAULT_DIRECTIONS", "fibonacci_directions", "scattering_orders", "sweep_once"]
@@ -69,9 +70,11 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
         Extinction at the data samples (float64).
     q0 : array (nx, ny, nz) or (nx, ny, nz, C)
         Scattered power density per channel (W/m³): §1's ``Q0 = σs E_d`` for the first order.
-    omega : array (nx, ny, nz, 3)
+    omega : array (nx, ny, nz, 3) or None
         Mean propagation direction of the light that scatters, per node (world; length ≤ 1):
-        §1's ``ω`` for the first order (below 1 next to a point light), ``F_k/φ_k`` after.
+        §1's ``ω`` for the first order (below 1 next to a point light), ``F_k/φ_k`` after. An
+        isotropic phase function scatters the same into every direction whatever ω, so it may
+        be None then.
     phase_kind, phase_g : int, float
         The phase function (``PhaseFunction.kind`` and ``.g``, as the kernels take them).
     spacing : 3 floats
@@ -89,7 +92,7 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     F : numpy.ndarray
         float32, ``q0.shape + (3,)``, world components.
     """
-    from ..._kernels.ordinates import sweep_group
+    from ..._kernels.ordinates import sweep_buffers, sweep_group
 
     sig = np.ascontiguousarray(sigma_t, np.float64)
     shape = sig.shape
@@ -101,10 +104,16 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     # in the source, and σt and the phase function are the same for all)
     grey = C > 1 and all(np.array_equal(q4[..., 0], q4[..., c]) for c in range(1, C))
     qs = np.ascontiguousarray(q4[..., :1] if grey else q4)
-    om = np.asarray(omega, np.float64)
-    wm = np.linalg.norm(om, axis=-1)
-    wu = np.ascontiguousarray(om / np.where(wm > 0, wm, 1.0)[..., None])
-    wm = np.ascontiguousarray(np.minimum(wm, 1.0))
+    if int(phase_kind) == ISOTROPIC:
+        # the kernel reads no direction field for an isotropic phase function: placeholders
+        wu, wm = np.zeros((1, 1, 1, 3)), np.zeros((1, 1, 1))
+    elif omega is None:
+        raise ValueError("omega is needed for an anisotropic phase function (phase_kind != ISOTROPIC)")
+    else:
+        om = np.asarray(omega, np.float64)
+        wm = np.linalg.norm(om, axis=-1)
+        wu = np.ascontiguousarray(om / np.where(wm > 0, wm, 1.0)[..., None])
+        wm = np.ascontiguousarray(np.minimum(wm, 1.0))
     dirs = fibonacci_directions(directions)
     wgt = np.full(len(dirs), 4.0 * math.pi / len(dirs))
     R = np.eye(3) if direction is None else np.asarray(direction, np.float64)
@@ -123,18 +132,15 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
             if not np.any(sel):
                 continue
             lat = [shape[x] for x in range(3) if x != a]
-            L = np.zeros((int(sel.sum()), 2, lat[0], lat[1], Cs))
-            S = np.zeros_like(L)
-            bufs = (np.zeros((2, lat[0], lat[1])), np.zeros((lat[0], lat[1], Cs)), np.zeros((lat[0], lat[1], 4)),
-                    np.zeros((lat[0], lat[1], Cs, 4)))
+            bufs, P = sweep_buffers(int(sel.sum()), Cs, lat[0], lat[1], int(phase_kind))
             sweep_group(sig, qs, wu, wm, int(phase_kind), float(phase_g), a, sign, np.ascontiguousarray(dirs[sel]),
-                        np.ascontiguousarray(u[sel]), np.ascontiguousarray(wgt[sel]), half, phi, F, L, S, *bufs)
+                        np.ascontiguousarray(u[sel]), np.ascontiguousarray(wgt[sel]), half, phi, F, *bufs, P)
     if grey:
         phi = np.repeat(phi, C, axis=3)
         F = np.repeat(F, C, axis=3)
     if single:
         phi, F = phi[..., 0], F[..., 0, :]
-    return phi, F.astype(np.float32)
+    return phi, F
 
 
 def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, orders, *,
@@ -163,13 +169,16 @@ def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, or
         alb = alb[..., None]
     sig_s = alb * (sig[..., None] if alb.ndim == 4 else sig)
     phi, F = phi_k.copy(), F_k.astype(np.float64)
+    iso = int(phase_kind) == ISOTROPIC
     for _ in range(1, orders):
-        tot = phi_k.sum(axis=3) if phi_k.ndim == 4 else phi_k
-        ftot = F_k.sum(axis=3) if F_k.ndim == 5 else F_k
-        # the beam's weight |F|/φ (≤ 1 for any radiance; clipped against rounding), none where φ
-        # is (sub)normal-small
-        ok = tot > 1e-280
-        om = np.where(ok[..., None], ftot / np.where(ok, tot, 1.0)[..., None], 0.0)
+        om = None  # an isotropic phase function needs no direction field (sweep_once)
+        if not iso:
+            tot = phi_k.sum(axis=3) if phi_k.ndim == 4 else phi_k
+            ftot = F_k.sum(axis=3) if F_k.ndim == 5 else F_k
+            # the beam's weight |F|/φ (≤ 1 for any radiance; clipped against rounding), none where φ
+            # is (sub)normal-small
+            ok = tot > 1e-280
+            om = np.where(ok[..., None], ftot / np.where(ok, tot, 1.0)[..., None], 0.0)
         phi_k, F_k = sweep_once(sig, sig_s * phi_k, om, phase_kind, phase_g, spacing, directions=m2, **kw)
         phi += phi_k
         F += F_k

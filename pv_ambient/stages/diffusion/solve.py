@@ -525,12 +525,18 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
 
 
 def _phase_kind(g):
-    """(kernel kind, parameter) of a phase function, or of Henyey–Greenstein for a mean cosine."""
-    from ..._kernels.phase import HENYEY_GREENSTEIN
+    """(kernel kind, parameter) of a phase function, or of Henyey–Greenstein for a mean cosine;
+    isotropic where the function is (Henyey–Greenstein or Schlick at g = 0: the same value, and
+    the sweeps then skip the direction field, :mod:`.ordinates`)."""
+    from ..._kernels.phase import HENYEY_GREENSTEIN, ISOTROPIC, SCHLICK
 
     if hasattr(g, "kind") and hasattr(g, "g"):
-        return int(g.kind), float(g.g)
-    if np.ndim(g) != 0:
+        kind, pg = int(g.kind), float(g.g)
+    elif np.ndim(g) != 0:
         raise ValueError("sweep_orders needs one phase function for the whole medium (a number or a "
                          "PhaseFunction), not a mean cosine per node")
-    return HENYEY_GREENSTEIN, float(check_mean_cosine(g, ()))
+    else:
+        kind, pg = HENYEY_GREENSTEIN, float(check_mean_cosine(g, ()))
+    if kind in (HENYEY_GREENSTEIN, SCHLICK) and pg == 0.0:
+        return ISOTROPIC, 0.0
+    return kind, pg
