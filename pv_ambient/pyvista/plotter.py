@@ -122,6 +122,11 @@ class AmbientVolume:
         self.interactive_resolution = float(interactive_resolution)
         self.interactive_step = int(interactive_step)
         self.step_factor = 1  # the drag frames' ray step, in resting steps (a power of two)
+        self.rest_seconds = None  # the last resting picture's ray cast, seconds (predicts the first drag's step)
+        self.dragged = False  # whether a drag has set the step (a later drag starts at the step it ended on)
+        # A callable taking a function to call once the view's size has settled (debounced), or None:
+        # a size change then renders at once. The trame views set it (pv_ambient.pyvista.jupyter).
+        self.defer_resize = None
         self.actor = None
         self.result = None
         self.volume_result = None
@@ -206,6 +211,25 @@ class AmbientVolume:
             step = self.renderer.default_step(self.options.get("quality", "balanced"))
         return step * self.step_factor
 
+    def _first_drag_step(self):
+        """At the first drag frame (no drag has set the step yet): the step its frame time asks for,
+        predicted from the last resting picture. A ray cast costs about its pixels times its samples,
+        so a frame at ``interactive_resolution`` and ``k`` resting steps takes about
+        ``rest_seconds · resolution² / k``: the smallest power of two ``k`` (up to ``interactive_step``)
+        that brings it within the render window's budget. The drag then adapts from there, and a
+        later drag starts at the step the last one ended on (docs/jupyter.rst, "Server rendering")."""
+        if self.dragged or not self._step_adapts:
+            return
+        self.dragged = True
+        if not self.rest_seconds:
+            return
+        budget = 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()
+        predicted = self.rest_seconds * self.interactive_resolution ** 2
+        k = 1
+        while predicted / k > STEP_GROW * budget and 2 * k <= self.interactive_step:
+            k *= 2
+        self.step_factor = k
+
     def _adapt_step(self, seconds):
         """After a drag frame that took ``seconds``: double the drag step while frames are slower
         than the render window's desired rate, halve it when they are well within it (as VTK's
@@ -247,11 +271,42 @@ class AmbientVolume:
         state = self._state(cam, size)
         if not force and state == self._key:
             return False
+        if self._step_adapts and not self.dragged:
+            self._first_drag_step()
+            state = self._state(cam, size)
         t = time.perf_counter()
         self._draw(cam, size, occluders)
         self._key = self._state(*self._view())  # after the plane set the camera (VTK normalises it)
-        self._adapt_step(time.perf_counter() - t)
+        seconds = time.perf_counter() - t
+        if self.moving:
+            self._adapt_step(seconds)
+        else:  # the ray cast alone: the first picture's time also holds the per-scene stages
+            self.rest_seconds = self.volume_result.metadata.get("time_render", seconds)
         return True
+
+    def _resizing(self):
+        """Whether this frame only changes the view's size while ``defer_resize`` is set: a page
+        settling its layout resizes the view several times in a second (1024×768, 30×30, 99×61,
+        985×511, 985×523); the picture is then rendered once, when the size has stopped changing
+        (``defer_resize`` calls :meth:`settle`), and the frame shows the last picture meanwhile."""
+        if self.defer_resize is None or self._key is None or self.moving:
+            return False
+        cam, size = self._view()
+        key = self._key
+        if tuple(size) == key[1] or _camera_key(cam) != key[0]:
+            return False
+        self.defer_resize(self.settle)
+        return True
+
+    def settle(self):
+        """Render at the view's present size if it changed (what a deferred resize calls); returns
+        whether it rendered."""
+        try:
+            return self.update()
+        except Exception as exc:  # called from an event loop: report, never raise into it
+            self.error = exc
+            warnings.warn(f"pv_ambient: interactive update failed: {exc!r}", RuntimeWarning, stacklevel=2)
+            return False
 
     def _render_volume(self, cam, size, **extra):
         opts = dict(self.options)
@@ -357,6 +412,8 @@ class AmbientVolume:
     # -- interactive mode ---------------------------------------------------------------------------
     def _on_start(self, obj=None, event=None):
         try:
+            if self._resizing():
+                return
             self.update()
             self._ensure_timer()
         except Exception as exc:  # an exception must not escape into VTK's render loop
@@ -587,4 +644,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         raise
     if interactive:
         vol.start()
+        from .jupyter import register  # the trame views find the plotter's volumes (docs/jupyter.rst)
+
+        register(vol)
     return vol
