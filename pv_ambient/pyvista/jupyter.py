@@ -5,11 +5,12 @@ trame view of a plotter and keeps the plotter's ambient volumes right in it (doc
   images; the volume re-renders from the render window's own frames (interactive mode). A page
   settling its layout resizes the view several times: the volume renders once, when the size has
   stopped changing for ``resize_delay`` seconds.
-* **client** (``mode="client"``, and ``"trame"`` when switched to client rendering): vtk.js draws
+* **client** (``mode="client"``, and ``"trame"`` while it renders in the browser): vtk.js draws
   the scene in the browser and the camera lives there, so no server frame ever starts a
-  re-render, and a new texture sent to the browser is not shown (vtk.js keeps the picture it
-  uploaded first): the textured plane would turn as a flat card. :func:`ambient_ui` therefore
-  builds a server view for these modes, with a one-line warning.
+  re-render. The view reports the browser's camera and canvas size when a camera interaction
+  ends; the volume re-renders from that camera at that size on the server, and the picture is
+  sent back on a new plane (:meth:`Follow.browser_camera`). While the camera is being dragged the
+  browser turns the last picture as a flat card; it is replaced when the drag ends.
 
 trame is optional (``pip install "pv_ambient[jupyter]"``): this module imports it only when a view
 is built.
@@ -19,7 +20,6 @@ from __future__ import annotations
 
 import asyncio
 import math
-import warnings
 import weakref
 
 #: Seconds a view's size must stay unchanged before the volume renders at it (a notebook page
@@ -79,9 +79,10 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
     plotter : pyvista.Plotter
         Holds one or more :func:`~pv_ambient.add_ambient_volume` volumes with ``interactive=True``.
     mode : {"trame", "server", "client"}, optional
-        As ``plotter_ui``'s (default: the plotter theme's ``trame.default_mode``). The view
-        renders on the server whatever the mode: ``"client"`` and ``"trame"`` (which can switch
-        to client rendering) warn once and build a ``"server"`` view (module docstring).
+        As ``plotter_ui``'s (default: the plotter theme's ``trame.default_mode``): ``"server"``
+        renders on the server; ``"client"`` draws with vtk.js in the browser, the volume
+        re-rendered on the server from the browser's camera when a camera interaction ends;
+        ``"trame"`` switches between the two (module docstring).
     resize_delay : float, default: 0.25
         Server rendering: seconds a size must hold before the volume renders at it (0: at once).
     **kwargs
@@ -108,7 +109,7 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
         pv_ambient.add_ambient_volume(pl, datasets.supernova(n=64), model="ambient_scattering",
                                       interactive=True)
         with SinglePageLayout(server) as layout, layout.content:
-            ambient_ui(pl, mode="server")
+            ambient_ui(pl, mode="client")
         server.start()
     """
     mode = mode if mode is not None else plotter._theme.trame.default_mode
@@ -116,13 +117,15 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
         raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")
-    if mode != "server":
-        # vtk.js keeps the texture it uploaded first: a re-render from the browser's camera reaches
-        # the browser as the new plane with the old picture on it (docs/jupyter.rst, "Client rendering")
-        warnings.warn(f"pv_ambient: mode={mode!r} shows the ambient volume as a flat card in the browser; "
-                      "this view renders on the server (mode='server')", UserWarning, stacklevel=2)
-        mode = "server"
     follow = Follow(plotter, mode, resize_delay)
+    if mode in ("client", "trame"):
+        # the browser's camera and canvas size (CSS pixels × devicePixelRatio, as vtk.js sizes it)
+        ref = f"trame.refs['view_{plotter._id_name}']"
+        # (null while the view has no renderer yet: its first resize comes before its scene)
+        camera = f"(() => {{ try {{ return {ref}.getCamera() }} catch (e) {{ return null }} }})()"
+        report = f"[{camera}, {ref}.$el.clientWidth, {ref}.$el.clientHeight, utils.get('devicePixelRatio')]"
+        kwargs.setdefault("EndAnimation", (follow.browser_camera, report))
+        kwargs.setdefault("resize", (follow.browser_resize, report))
     view = plotter_ui(plotter, mode=mode, **kwargs)
     follow.attach(view)
     view.ambient_follow = follow
@@ -136,9 +139,11 @@ class Follow:
     ----------
     plotter : pyvista.Plotter
     mode : str
-        The view's mode (``"server"``).
+        ``"server"``, ``"client"`` or ``"trame"``.
     view
         The trame view.
+    renders : int
+        How many pictures the browser's camera reports caused (client rendering).
     """
 
     def __init__(self, plotter, mode, resize_delay=RESIZE_DELAY):
@@ -146,18 +151,29 @@ class Follow:
         self.mode = mode
         self.resize_delay = float(resize_delay)
         self.view = None
+        self.renders = 0
         self._pending = None
+        self._retired = []  # the planes replaced in the browser, kept alive (see browser_camera)
 
     def attach(self, view):
-        """Link ``view``: server rendering defers resizes (:meth:`defer`)."""
+        """Link ``view``: the server's frames defer resizes (:meth:`defer`)."""
         self.view = view
         if self.resize_delay > 0:
             for vol in volumes_of(self.plotter):
                 vol.defer_resize = self.defer
 
-    def defer(self, settle):
+    def _server_rendering(self):
+        """Whether the view renders on the server now (a ``"trame"`` view switches)."""
+        if self.mode != "trame":
+            return self.mode == "server"
+        from trame_pyvista.ui import get_viewer
+
+        return bool(self.view.server.state[get_viewer(self.plotter).SERVER_RENDERING])
+
+    def defer(self, settle, push=True):
         """Call ``settle`` once the view's size has held for ``resize_delay`` seconds (each call
-        restarts the wait), then send the view the new picture. Outside an event loop: at once."""
+        restarts the wait), then (``push``) send the view the new picture when it rendered.
+        Outside an event loop: at once."""
         if self._pending is not None:
             self._pending.cancel()
         try:
@@ -168,7 +184,61 @@ class Follow:
 
         def run():
             self._pending = None
-            if settle() and self.view is not None:
+            if settle() and push and self.view is not None:
                 self.view.update()
 
         self._pending = loop.call_later(self.resize_delay, run)
+
+    def browser_camera(self, camera, width, height, pixel_ratio=1.0):
+        """Client rendering: the browser's camera (vtk.js ``getCamera()``: position, focalPoint,
+        viewUp, viewAngle, parallelProjection, parallelScale) and its canvas size in CSS pixels
+        when a camera interaction ends. Puts that camera and size on the plotter, re-renders its
+        volumes and sends the view the new plane and picture. Returns whether it rendered."""
+        if camera is None or self.view is None or self._server_rendering():
+            return False  # no camera yet, or the server's own frames follow its camera
+        cam = self.plotter.camera
+        cam.position = tuple(camera["position"])
+        cam.focal_point = tuple(camera["focalPoint"])
+        cam.up = tuple(camera["viewUp"])
+        cam.view_angle = float(camera.get("viewAngle", cam.view_angle))
+        cam.parallel_projection = bool(camera.get("parallelProjection", False))
+        cam.parallel_scale = float(camera.get("parallelScale", cam.parallel_scale))
+        ratio = float(pixel_ratio or 1.0)
+        # vtk.js: canvas = floor(max(CSS size · devicePixelRatio, 10))
+        size = (max(10, math.floor(float(width) * ratio)), max(10, math.floor(float(height) * ratio)))
+        self.plotter.ren_win.SetSize(*size)
+        rendered = [vol for vol in volumes_of(self.plotter) if vol.update()]
+        for vol in rendered:
+            # A new plane actor: vtk.js uploads a texture's image once, and an actor's textures
+            # accumulate there (the first drawn), so an updated texture would not show. The old
+            # actor and texture stay alive (their images dropped), so VTK never hands their
+            # addresses — the browser's ids for them — to a new object.
+            old = vol.new_plane()
+            _drop_image(old.GetTexture())
+            self._retired.append(old)
+        if rendered:
+            self.renders += 1
+            self._push()
+        return bool(rendered)
+
+    def browser_resize(self, camera, width, height, pixel_ratio=1.0):
+        """Client rendering: the browser's view was resized (a page settling its layout, a
+        window resized): :meth:`browser_camera` once the size has held for ``resize_delay``."""
+        self.defer(lambda: self.browser_camera(camera, width, height, pixel_ratio), push=False)
+
+    def _push(self):
+        if self.mode == "trame":
+            self.view.update_geometry()
+        else:
+            self.view.update()
+
+
+def _drop_image(texture):
+    """Replace ``texture``'s image by a 1×1 one (a retired plane keeps its object, not its memory)."""
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkCommonCore import VTK_UNSIGNED_CHAR
+
+    img = vtkImageData()
+    img.SetDimensions(1, 1, 1)
+    img.AllocateScalars(VTK_UNSIGNED_CHAR, 3)
+    texture.SetInputDataObject(img)

@@ -178,8 +178,9 @@ def settle_page(driver, app, url, quiet=1.5, timeout=120):
 
 @pytest.mark.parametrize("mode", ["server", "client"])
 def test_a_drag_re_renders_to_the_direct_render(browser, mode, tmp_path):
-    """Server mode, and client mode (which builds a server view, docs/jupyter.rst): after a drag
-    the view shows pv_ambient's render from the camera the drag ended at, not the picture before."""
+    """Server rendering (the server's frames) and client rendering (vtk.js reports its camera and
+    canvas size when the drag ends): after a drag the view shows pv_ambient's render from the camera
+    the drag ended at, at the view's size, not the picture before."""
     out = OUT / mode
     out.mkdir(parents=True, exist_ok=True)
     app = App(mode, 32, tmp_path)

@@ -1,0 +1,127 @@
+"""Tests pv_ambient/pyvista/jupyter.py without a browser: the link between a plotter's ambient
+volumes and its trame view (issue 46). Client rendering: the browser's camera and canvas size
+re-render the volume on a new plane; resizes are debounced; the trame imports warn nothing.
+tests/browser drive the same code from headless Chromium (make test-browser)."""
+
+import asyncio
+import os
+import warnings
+
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import pv_ambient as pa  # noqa: E402
+from pv_ambient import datasets  # noqa: E402
+from pv_ambient.pyvista.jupyter import Follow, ambient_ui, volumes_of  # noqa: E402
+
+from .helpers import plotter  # noqa: E402
+
+SIZE = (40, 30)
+
+
+class FakeView:
+    """What Follow asks of a trame view: update() sends the scene to the browser."""
+
+    def __init__(self):
+        self.updates = 0
+
+    def update(self):
+        self.updates += 1
+
+
+@pytest.fixture(scope="module")
+def grid():
+    return datasets.cloud(n=16)
+
+
+def browser_camera(position, angle=30.0):
+    """A camera as vtk.js getCamera() reports it."""
+    return dict(position=list(position), focalPoint=[0.0, 0.0, 0.0], viewUp=[0.0, 0.0, 1.0], viewAngle=angle,
+                parallelProjection=False, parallelScale=1.0, centerOfRotation=[0.0, 0.0, 0.0])
+
+
+def test_volumes_of_lists_the_interactive_volumes(grid):
+    pl = plotter(SIZE)
+    still = pa.add_ambient_volume(pl, grid)
+    live = pa.add_ambient_volume(pl, grid, interactive=True)
+    assert volumes_of(pl) == [live] and still.observer is None
+    live.remove_observer()
+    assert volumes_of(pl) == []
+    pl.close()
+
+
+def test_the_browser_camera_re_renders_at_the_canvas_size_on_a_new_plane(grid):
+    """Why: with vtk.js the camera lives in the browser and no server frame starts a re-render —
+    the plane turned as a flat card at the plotter's 1024×768. The reported camera and canvas size
+    (CSS pixels × devicePixelRatio) re-render the volume there, on a new plane actor (vtk.js keeps
+    a texture's first image), and the view is sent the scene."""
+    pl = plotter(SIZE)
+    vol = pa.add_ambient_volume(pl, grid, interactive=True)
+    follow, view = Follow(pl, "client"), FakeView()
+    follow.attach(view)
+    old = vol.actor
+    cam = browser_camera((3.0, -2.0, 1.5), angle=35.0)
+    assert follow.browser_camera(cam, 25, 20, 2.0)  # a 2× screen: a 50×40 canvas
+    assert vol.result.window_size == (50, 40) and view.updates == 1 and follow.renders == 1
+    assert vol.actor is not old and not pl.renderer.HasViewProp(old) and pl.renderer.HasViewProp(vol.actor)
+    assert old.GetTexture().GetInput().GetDimensions() == (1, 1, 1)  # the retired plane's image dropped
+    ref = vol.renderer.render(camera=pa.Camera((3.0, -2.0, 1.5), (0, 0, 0), (0, 0, 1), view_angle=35.0),
+                              window_size=(50, 40))
+    np.testing.assert_allclose(vol.volume_result.radiance, ref.radiance, rtol=0, atol=1e-6)
+    assert not follow.browser_camera(cam, 25, 20, 2.0) and view.updates == 1  # nothing changed: no render
+    assert not follow.browser_camera(None, 25, 20)  # no camera yet (the view's first resize)
+    pl.close()
+
+
+def test_resizes_are_debounced_in_an_event_loop(grid):
+    """A settling page reports several sizes within a fraction of a second: one render, at the
+    last size, ``resize_delay`` after the last report; outside an event loop each size renders."""
+    pl = plotter(SIZE)
+    vol = pa.add_ambient_volume(pl, grid, interactive=True)
+    follow, view = Follow(pl, "client", resize_delay=0.05), FakeView()
+    follow.attach(view)
+    cam = browser_camera((2.0, 2.0, 2.0))
+
+    async def settle():
+        for w in (12, 30, 44):
+            follow.browser_resize(cam, w, 20)
+        await asyncio.sleep(0.3)
+
+    asyncio.run(settle())
+    assert vol.renders == 2 and vol.result.window_size == (44, 20) and view.updates == 1
+    follow.browser_resize(cam, 36, 24)  # no loop: at once
+    assert vol.renders == 3 and vol.result.window_size == (36, 24)
+    pl.close()
+
+
+@pytest.mark.parametrize("kwargs,match", [(dict(mode="vtk.js"), "mode"), (dict(resize_delay=-1), "resize_delay"),
+                                          (dict(resize_delay=float("nan")), "resize_delay")])
+def test_ambient_ui_checks_its_arguments(grid, kwargs, match):
+    pl = plotter(SIZE)
+    pa.add_ambient_volume(pl, grid, interactive=True)
+    with pytest.raises(ValueError, match=match):
+        ambient_ui(pl, **kwargs)
+    pl.close()
+
+
+@pytest.mark.parametrize("mode", ["server", "client", "trame"])
+def test_ambient_ui_builds_pyvistas_view_without_deprecation_warnings(grid, mode):
+    """pv_ambient imports plotter_ui from trame_pyvista.ui (pyvista.trame.ui is a deprecated shim in
+    PyVista 0.49): building each view warns nothing (the suite turns warnings into errors)."""
+    pytest.importorskip("trame_pyvista")
+    from trame.app import get_server
+    from trame.ui.vuetify3 import SinglePageLayout
+
+    pl = plotter(SIZE)
+    vol = pa.add_ambient_volume(pl, grid, interactive=True)
+    server = get_server(f"pv-ambient-test-{mode}", client_type="vue3")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # the suite's filters ignore pyvista's own DeprecationWarnings
+        with SinglePageLayout(server) as layout, layout.content:
+            view = ambient_ui(pl, mode=mode, server=server, add_menu=False)
+    assert not [w for w in caught if "deprecat" in str(w.message).lower()], [str(w.message) for w in caught]
+    follow = view.ambient_follow
+    assert follow.view is view and follow.mode == mode and vol.defer_resize == follow.defer
+    pl.close()
