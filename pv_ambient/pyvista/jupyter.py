@@ -1,5 +1,6 @@
-"""pv_ambient volumes in PyVista's Jupyter backends (trame): :func:`ambient_ui` builds PyVista's
-trame view of a plotter and keeps the plotter's ambient volumes right in it (docs/jupyter.rst).
+"""pv_ambient volumes in PyVista's Jupyter backends (trame), right in each (docs/jupyter.rst):
+:func:`show` is ``plotter.show()`` in a notebook, :func:`ambient_ui` is ``plotter_ui`` in a trame
+app, and both :func:`link` PyVista's view to the plotter's ambient volumes.
 
 * **server** (``mode="server"``): the plotter renders on the server and the browser shows its
   images; the volume re-renders from the render window's own frames (interactive mode). A page
@@ -116,20 +117,79 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
+        raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")  # before any UI
+    view = plotter_ui(plotter, mode=mode, **kwargs)
+    link(view, plotter, resize_delay=resize_delay)
+    return view
+
+
+def view_mode(view):
+    """``"server"``, ``"client"`` or ``"trame"``: the kind of PyVista trame view ``view`` is."""
+    from trame_vtk.widgets.vtk import VtkLocalView, VtkRemoteLocalView
+
+    if isinstance(view, VtkRemoteLocalView):
+        return "trame"
+    return "client" if isinstance(view, VtkLocalView) else "server"
+
+
+def link(view, plotter, *, resize_delay=RESIZE_DELAY):
+    """Keep ``plotter``'s ambient volumes right in ``view``, one of PyVista's trame views of it
+    (``plotter_ui``'s, or those ``plotter.show()`` builds in Jupyter: :func:`show`): bind the
+    browser's camera and size reports of a client view (:meth:`Follow.browser_camera`) and defer
+    the volumes' re-renders on resizes. Call it before the page loads (while the layout is built,
+    or before it is flushed). Returns the :class:`Follow` (also ``view.ambient_follow``)."""
+    if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
         raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")
-    follow = Follow(plotter, mode, resize_delay)
-    if mode in ("client", "trame"):
-        # the browser's camera and canvas size (CSS pixels × devicePixelRatio, as vtk.js sizes it)
-        ref = f"trame.refs['view_{plotter._id_name}']"
-        # (null while the view has no renderer yet: its first resize comes before its scene)
+    follow = Follow(plotter, view_mode(view), resize_delay)
+    if follow.mode in ("client", "trame"):
+        # the browser's camera and canvas size (CSS pixels × devicePixelRatio, as vtk.js sizes it);
+        # the camera is null while the view has no renderer yet (its first resize precedes its scene)
+        ref = f"trame.refs['{view_ref(view, plotter)}']"
         camera = f"(() => {{ try {{ return {ref}.getCamera() }} catch (e) {{ return null }} }})()"
         report = f"[{camera}, {ref}.$el.clientWidth, {ref}.$el.clientHeight, utils.get('devicePixelRatio')]"
-        kwargs.setdefault("EndAnimation", (follow.browser_camera, report))
-        kwargs.setdefault("resize", (follow.browser_resize, report))
-    view = plotter_ui(plotter, mode=mode, **kwargs)
+        view.EndAnimation = (follow.browser_camera, report)
+        view.resize = (follow.browser_resize, report)
     follow.attach(view)
     view.ambient_follow = follow
-    return view
+    return follow
+
+
+def view_ref(view, plotter):
+    """The name the browser knows ``view`` by (PyVista's views: ``view_<plotter id>``)."""
+    return f"view_{plotter._id_name}"
+
+
+def show(plotter, *, jupyter_backend=None, resize_delay=RESIZE_DELAY, **kwargs):
+    """``plotter.show()`` in Jupyter with its ambient volumes kept right in every trame backend
+    (``"trame"``, ``"server"``, ``"client"``): PyVista builds its view as usual and :func:`link`
+    binds it before the page loads. Other backends (``"static"``, ``"html"``, ``"none"``) are
+    ``plotter.show()``'s own. ``kwargs`` as ``plotter.show`` (a ``handler`` in ``jupyter_kwargs``
+    still builds the output).
+
+    Examples
+    --------
+    In a notebook cell::
+
+        pl = pv.Plotter()
+        pv_ambient.add_ambient_volume(pl, grid, model="ambient_scattering", interactive=True)
+        show(pl, jupyter_backend="client")
+    """
+    jupyter_kwargs = dict(kwargs.pop("jupyter_kwargs", None) or {})
+    handler = jupyter_kwargs.pop("handler", None)
+
+    def linked(viewer, src, **kw):
+        for view in list(viewer.views):
+            link(view, plotter, resize_delay=resize_delay)
+        if getattr(viewer, "layout", None) is not None:
+            viewer.layout.flush_content()  # the bindings reach the page's template
+        if handler is not None:
+            return handler(viewer, src, **kw)
+        from trame_pyvista.jupyter import Widget
+
+        return Widget(viewer, src, **kw)
+
+    return plotter.show(jupyter_backend=jupyter_backend, jupyter_kwargs={**jupyter_kwargs, "handler": linked},
+                        **kwargs)
 
 
 class Follow:

@@ -62,24 +62,37 @@ def main(argv=None):
     p.add_argument("--port", type=int, required=True)
     p.add_argument("--n", type=int, default=32)
     p.add_argument("--log", required=True)
+    p.add_argument("--via", choices=("ambient_ui", "show"), default="ambient_ui",
+                   help="build the view with ambient_ui, or as plotter.show() does in Jupyter (then linked)")
     a = p.parse_args(argv)
 
     from trame.app import get_server
     from trame.ui.vuetify3 import SinglePageLayout
 
-    from pv_ambient.pyvista.jupyter import ambient_ui
+    from pv_ambient.pyvista.jupyter import ambient_ui, link
 
     server = get_server(client_type="vue3")
     grid, opts = scene(a.n)
     pl = pv.Plotter(off_screen=True)
     vol = pa.add_ambient_volume(pl, grid, interactive=True, **opts)
     instrument(vol, a.log)
-    with SinglePageLayout(server) as layout:
-        layout.title.set_text("pv_ambient")
-        with layout.content:
-            ambient_ui(pl, mode=a.mode, add_menu=False)
+    path = "/"
+    if a.via == "show":  # what pv_ambient.pyvista.jupyter.show does inside plotter.show()
+        from trame_pyvista.jupyter import initialize
+
+        viewer = initialize(server, pl, mode=a.mode, add_menu=False)
+        for view in viewer.views:
+            link(view, pl)
+        viewer.layout.flush_content()
+        path = f"/index.html?ui={pl._id_name}"
+    else:
+        with SinglePageLayout(server) as layout:
+            layout.title.set_text("pv_ambient")
+            with layout.content:
+                ambient_ui(pl, mode=a.mode, add_menu=False)
     with open(a.log, "a") as f:
-        f.write(json.dumps(dict(ready=time.time(), first_render=vol.volume_result.metadata.get("time_render"))) + "\n")
+        f.write(json.dumps(dict(ready=time.time(), path=path,
+                                first_render=vol.volume_result.metadata.get("time_render"))) + "\n")
     server.start(port=a.port, host="127.0.0.1", open_browser=False, show_connection_info=False, timeout=0)
 
 

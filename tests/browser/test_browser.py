@@ -77,16 +77,18 @@ def browser():
 class App:
     """The app of ``app.py`` in a subprocess, its render log and its page."""
 
-    def __init__(self, mode, n, tmp):
+    def __init__(self, mode, n, tmp, via="ambient_ui"):
         self.port, self.log = free_port(), Path(tmp) / f"renders-{mode}-{n}.jsonl"
         self.stderr = open(Path(tmp) / f"app-{mode}-{n}.log", "w")
         self.proc = subprocess.Popen([sys.executable, str(APP), "--mode", mode, "--port", str(self.port),
-                                      "--n", str(n), "--log", str(self.log)], cwd=ROOT,
+                                      "--n", str(n), "--log", str(self.log), "--via", via], cwd=ROOT,
                                      stdout=self.stderr, stderr=subprocess.STDOUT)
         deadline = time.time() + 240
         while not any("ready" in r for r in read_log(self.log)):
             assert self.proc.poll() is None and time.time() < deadline, "the app did not start"
             time.sleep(0.2)
+        path = next(r["path"] for r in read_log(self.log) if "ready" in r)
+        self.url = f"http://127.0.0.1:{self.port}{path}"
         time.sleep(1.0)  # the server listening
 
     def renders(self):
@@ -176,16 +178,19 @@ def settle_page(driver, app, url, quiet=1.5, timeout=120):
     raise AssertionError("the page did not settle")
 
 
-@pytest.mark.parametrize("mode", ["server", "client"])
-def test_a_drag_re_renders_to_the_direct_render(browser, mode, tmp_path):
+@pytest.mark.parametrize("mode,via", [("server", "ambient_ui"), ("client", "ambient_ui"), ("server", "show"),
+                                      ("client", "show")])
+def test_a_drag_re_renders_to_the_direct_render(browser, mode, via, tmp_path):
     """Server rendering (the server's frames) and client rendering (vtk.js reports its camera and
     canvas size when the drag ends): after a drag the view shows pv_ambient's render from the camera
-    the drag ended at, at the view's size, not the picture before."""
-    out = OUT / mode
+    the drag ended at, at the view's size, not the picture before. ``via="show"`` builds the view as
+    ``plotter.show(jupyter_backend=mode)`` does in Jupyter, linked as :func:`pv_ambient.pyvista.jupyter.show`
+    links it."""
+    out = OUT / f"{mode}-{via}"
     out.mkdir(parents=True, exist_ok=True)
-    app = App(mode, 32, tmp_path)
+    app = App(mode, 32, tmp_path, via)
     try:
-        settle_page(browser, app, f"http://127.0.0.1:{app.port}/")
+        settle_page(browser, app, app.url)
         el = view_element(browser)
         before = shot(el, out / "before.png")
         released = drag(browser, el)
@@ -214,7 +219,7 @@ def test_server_mode_timings_64(browser, tmp_path):
     app = App("server", 64, tmp_path)
     try:
         t_load = time.time()
-        settle_page(browser, app, f"http://127.0.0.1:{app.port}/")
+        settle_page(browser, app, app.url)
         load = [r for r in app.renders() if r["t_start"] > t_load]
         el = view_element(browser)
         t_drag = time.time()

@@ -125,3 +125,31 @@ def test_ambient_ui_builds_pyvistas_view_without_deprecation_warnings(grid, mode
     follow = view.ambient_follow
     assert follow.view is view and follow.mode == mode and vol.defer_resize == follow.defer
     pl.close()
+
+
+def test_show_links_the_views_plotter_show_builds(grid, monkeypatch):
+    """``show(pl, jupyter_backend=...)`` is ``pl.show()`` with a handler that links each view PyVista
+    built (here the Jupyter path's ``initialize``, without a notebook) before the page loads, then
+    builds the output as the user's handler (or PyVista's iframe widget) would."""
+    pytest.importorskip("trame_pyvista")
+    from trame.app import get_server
+    from trame_pyvista.jupyter import initialize
+
+    from pv_ambient.pyvista.jupyter import show
+
+    pl = plotter(SIZE)
+    vol = pa.add_ambient_volume(pl, grid, interactive=True)
+    asked = {}
+
+    def fake_show(**kwargs):  # what PyVista's show does with the handler in Jupyter
+        asked.update(kwargs)
+        viewer = initialize(get_server("pv-ambient-test-show", client_type="vue3"), pl, mode="client")
+        return kwargs["jupyter_kwargs"]["handler"](viewer, "http://x/index.html", width="100%")
+
+    monkeypatch.setattr(pl, "show", fake_show)
+    out = show(pl, jupyter_backend="client", jupyter_kwargs=dict(handler=lambda viewer, src, **kw: (viewer, src, kw)))
+    viewer, src, kw = out
+    assert asked["jupyter_backend"] == "client" and src == "http://x/index.html" and kw == {"width": "100%"}
+    (view,) = viewer.views
+    assert view.ambient_follow.mode == "client" and vol.defer_resize == view.ambient_follow.defer
+    pl.close()
