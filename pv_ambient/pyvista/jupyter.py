@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import warnings
 import weakref
 
 #: Seconds a view's size must stay unchanged before the volume renders at it (a notebook page
@@ -162,8 +163,9 @@ def view_ref(view, plotter):
 def show(plotter, *, jupyter_backend=None, resize_delay=RESIZE_DELAY, **kwargs):
     """``plotter.show()`` in Jupyter with its ambient volumes kept right in every trame backend
     (``"trame"``, ``"server"``, ``"client"``): PyVista builds its view as usual and :func:`link`
-    binds it before the page loads. Other backends (``"static"``, ``"html"``, ``"none"``) are
-    ``plotter.show()``'s own. ``kwargs`` as ``plotter.show`` (a ``handler`` in ``jupyter_kwargs``
+    binds it before the page loads. ``"static"`` and ``"none"`` are ``plotter.show()``'s own;
+    ``"html"`` (a vtk.js scene exported without a server, whose camera would turn the picture as a
+    flat card) shows the ``"static"`` picture, with a one-line warning. ``kwargs`` as ``plotter.show`` (a ``handler`` in ``jupyter_kwargs``
     still builds the output).
 
     Examples
@@ -174,6 +176,11 @@ def show(plotter, *, jupyter_backend=None, resize_delay=RESIZE_DELAY, **kwargs):
         pv_ambient.add_ambient_volume(pl, grid, model="ambient_scattering", interactive=True)
         show(pl, jupyter_backend="client")
     """
+    if jupyter_backend == "html" and volumes_of(plotter):
+        # the exported vtk.js scene has no server behind it: its camera would turn a flat card
+        warnings.warn("pv_ambient: the 'html' backend cannot re-render an ambient volume from its camera; "
+                      "showing the picture instead (jupyter_backend='static')", UserWarning, stacklevel=2)
+        jupyter_backend = "static"
     jupyter_kwargs = dict(kwargs.pop("jupyter_kwargs", None) or {})
     handler = jupyter_kwargs.pop("handler", None)
 

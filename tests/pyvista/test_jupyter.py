@@ -153,3 +153,18 @@ def test_show_links_the_views_plotter_show_builds(grid, monkeypatch):
     (view,) = viewer.views
     assert view.ambient_follow.mode == "client" and vol.defer_resize == view.ambient_follow.defer
     pl.close()
+
+
+def test_show_turns_the_html_backend_into_the_static_picture(grid, monkeypatch):
+    """The 'html' backend exports the vtk.js scene without a server: its camera would turn the
+    picture as a flat card, so show() warns in one line and shows the static picture."""
+    from pv_ambient.pyvista.jupyter import show
+
+    pl = plotter(SIZE)
+    pa.add_ambient_volume(pl, grid, interactive=True)
+    asked = {}
+    monkeypatch.setattr(pl, "show", lambda **kw: asked.update(kw))
+    with pytest.warns(UserWarning, match="'html' backend cannot re-render"):
+        show(pl, jupyter_backend="html")
+    assert asked["jupyter_backend"] == "static"
+    pl.close()
