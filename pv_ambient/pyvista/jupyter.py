@@ -6,12 +6,15 @@ app, and both :func:`link` PyVista's view to the plotter's ambient volumes.
   images; the volume re-renders from the render window's own frames (interactive mode). A page
   settling its layout resizes the view several times: the volume renders once, when the size has
   stopped changing for ``resize_delay`` seconds.
-* **client** (``mode="client"``, and ``"trame"`` while it renders in the browser): vtk.js draws
-  the scene in the browser and the camera lives there, so no server frame ever starts a
-  re-render. The view reports the browser's camera and canvas size when a camera interaction
-  ends; the volume re-renders from that camera at that size on the server, and the picture is
-  sent back on a new plane (:meth:`Follow.browser_camera`). While the camera is being dragged the
-  browser turns the last picture as a flat card; it is replaced when the drag ends.
+* **client** (``mode="client"``): vtk.js draws the scene in the browser and the camera lives
+  there, so no server frame ever starts a re-render. The view reports the browser's camera and
+  canvas size when a camera interaction ends; the volume re-renders from that camera at that size
+  on the server and the picture is sent back on a new plane (:meth:`Follow.browser_camera`). While
+  the camera is being dragged the browser turns the last picture as a flat card; it is replaced
+  when the drag ends.
+* **trame** (``mode="trame"``, switchable): kept in server rendering; switched to client rendering
+  it turns back, with a one-line warning (its client side applies only the server's full scenes,
+  which leave a replaced plane in the browser beside the new one).
 
 trame is optional (``pip install "pv_ambient[jupyter]"``): this module imports it only when a view
 is built.
@@ -84,7 +87,7 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
         As ``plotter_ui``'s (default: the plotter theme's ``trame.default_mode``): ``"server"``
         renders on the server; ``"client"`` draws with vtk.js in the browser, the volume
         re-rendered on the server from the browser's camera when a camera interaction ends;
-        ``"trame"`` switches between the two (module docstring).
+        ``"trame"`` is kept in server rendering (module docstring).
     resize_delay : float, default: 0.25
         Server rendering: seconds a size must hold before the volume renders at it (0: at once).
     **kwargs
@@ -142,7 +145,9 @@ def link(view, plotter, *, resize_delay=RESIZE_DELAY):
     if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
         raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")
     follow = Follow(plotter, view_mode(view), resize_delay)
-    if follow.mode in ("client", "trame"):
+    if follow.mode == "trame":
+        _server_rendering_only(view, plotter)
+    if follow.mode == "client":
         # the browser's camera and canvas size (CSS pixels × devicePixelRatio, as vtk.js sizes it);
         # the camera is null while the view has no renderer yet (its first resize precedes its scene)
         ref = f"trame.refs['{view_ref(view, plotter)}']"
@@ -153,6 +158,23 @@ def link(view, plotter, *, resize_delay=RESIZE_DELAY):
     follow.attach(view)
     view.ambient_follow = follow
     return follow
+
+
+def _server_rendering_only(view, plotter):
+    """Keep trame's switchable view in server rendering: switched to client rendering it builds
+    its scene from the server's full scenes only, which leave a replaced plane in the browser (the
+    new picture then shows beside the old), so the view switches back, with a one-line warning."""
+    from trame_pyvista.ui import get_viewer
+
+    key, state = get_viewer(plotter).SERVER_RENDERING, view.server.state
+    state[key] = True
+
+    @state.change(key)
+    def _back_to_server(**_):
+        if not state[key]:
+            warnings.warn("pv_ambient: the ambient volume is rendered on the server in this view; "
+                          "back to server rendering", UserWarning, stacklevel=2)
+            state[key] = True
 
 
 def view_ref(view, plotter):
@@ -210,7 +232,7 @@ class Follow:
     view
         The trame view.
     renders : int
-        How many pictures the browser's camera reports caused (client rendering).
+        How many times new pictures were sent to the view.
     """
 
     def __init__(self, plotter, mode, resize_delay=RESIZE_DELAY):
@@ -220,22 +242,15 @@ class Follow:
         self.view = None
         self.renders = 0
         self._pending = None
-        self._retired = []  # the planes replaced in the browser, kept alive (see browser_camera)
+        self._sent = {}  # id(volume) → its render count when its picture was last sent
 
     def attach(self, view):
         """Link ``view``: the server's frames defer resizes (:meth:`defer`)."""
         self.view = view
+        self._sent = {id(vol): vol.renders for vol in volumes_of(self.plotter)}  # the page loads these
         if self.resize_delay > 0:
             for vol in volumes_of(self.plotter):
                 vol.defer_resize = self.defer
-
-    def _server_rendering(self):
-        """Whether the view renders on the server now (a ``"trame"`` view switches)."""
-        if self.mode != "trame":
-            return self.mode == "server"
-        from trame_pyvista.ui import get_viewer
-
-        return bool(self.view.server.state[get_viewer(self.plotter).SERVER_RENDERING])
 
     def defer(self, settle, push=True):
         """Call ``settle`` once the view's size has held for ``resize_delay`` seconds (each call
@@ -252,7 +267,7 @@ class Follow:
         def run():
             self._pending = None
             if settle() and push and self.view is not None:
-                self.view.update()
+                self._send()
 
         self._pending = loop.call_later(self.resize_delay, run)
 
@@ -261,7 +276,7 @@ class Follow:
         viewUp, viewAngle, parallelProjection, parallelScale) and its canvas size in CSS pixels
         when a camera interaction ends. Puts that camera and size on the plotter, re-renders its
         volumes and sends the view the new plane and picture. Returns whether it rendered."""
-        if camera is None or self.view is None or self._server_rendering():
+        if camera is None or self.view is None or self.mode != "client":
             return False  # no camera yet, or the server's own frames follow its camera
         cam = self.plotter.camera
         cam.position = tuple(camera["position"])
@@ -274,30 +289,33 @@ class Follow:
         # vtk.js: canvas = floor(max(CSS size · devicePixelRatio, 10))
         size = (max(10, math.floor(float(width) * ratio)), max(10, math.floor(float(height) * ratio)))
         self.plotter.ren_win.SetSize(*size)
-        rendered = [vol for vol in volumes_of(self.plotter) if vol.update()]
-        for vol in rendered:
-            # A new plane actor: vtk.js uploads a texture's image once, and an actor's textures
-            # accumulate there (the first drawn), so an updated texture would not show. The old
-            # actor and texture stay alive (their images dropped), so VTK never hands their
-            # addresses — the browser's ids for them — to a new object.
-            old = vol.new_plane()
-            _drop_image(old.GetTexture())
-            self._retired.append(old)
-        if rendered:
-            self.renders += 1
-            self._push()
-        return bool(rendered)
+        for vol in volumes_of(self.plotter):
+            vol.update()
+        return self._send()
 
     def browser_resize(self, camera, width, height, pixel_ratio=1.0):
         """Client rendering: the browser's view was resized (a page settling its layout, a
         window resized): :meth:`browser_camera` once the size has held for ``resize_delay``."""
         self.defer(lambda: self.browser_camera(camera, width, height, pixel_ratio), push=False)
 
-    def _push(self):
-        if self.mode == "trame":
-            self.view.update_geometry()
-        else:
-            self.view.update()
+    def _send(self):
+        """Send the view the volumes' pictures rendered since the last time; returns whether there
+        were any. A view that can draw in the browser gets each new picture on a new plane actor:
+        vtk.js uploads a texture's image once, and an actor's textures accumulate there (the first
+        drawn), so a texture updated in place would not show. The old actor stays in the renderer,
+        collapsed to a point and its image dropped, so VTK never hands its address — the browser's
+        id for it — to a new object."""
+        new = [vol for vol in volumes_of(self.plotter) if self._sent.get(id(vol)) != vol.renders]
+        if not new:
+            return False
+        for vol in new:
+            if self.mode == "client":
+                old = vol.new_plane(keep_old=True)
+                _drop_image(old.GetTexture())
+            self._sent[id(vol)] = vol.renders
+        self.renders += 1
+        self.view.update()
+        return True
 
 
 def _drop_image(texture):

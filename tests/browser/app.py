@@ -58,7 +58,8 @@ def instrument(vol, path):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__)
-    p.add_argument("--mode", choices=("server", "client"), required=True)
+    p.add_argument("--mode", choices=("server", "client", "trame"), required=True,
+                   help="trame: the switchable view, started in client rendering")
     p.add_argument("--port", type=int, required=True)
     p.add_argument("--n", type=int, default=32)
     p.add_argument("--log", required=True)
@@ -80,7 +81,7 @@ def main(argv=None):
     if a.via == "show":  # what pv_ambient.pyvista.jupyter.show does inside plotter.show()
         from trame_pyvista.jupyter import initialize
 
-        viewer = initialize(server, pl, mode=a.mode, add_menu=False)
+        viewer = initialize(server, pl, mode=a.mode, add_menu=False, default_server_rendering=a.mode != "trame")
         for view in viewer.views:
             link(view, pl)
         viewer.layout.flush_content()
@@ -89,7 +90,7 @@ def main(argv=None):
         with SinglePageLayout(server) as layout:
             layout.title.set_text("pv_ambient")
             with layout.content:
-                ambient_ui(pl, mode=a.mode, add_menu=False)
+                ambient_ui(pl, mode=a.mode, add_menu=False, default_server_rendering=a.mode != "trame")
     with open(a.log, "a") as f:
         f.write(json.dumps(dict(ready=time.time(), path=path,
                                 first_render=vol.volume_result.metadata.get("time_render"))) + "\n")

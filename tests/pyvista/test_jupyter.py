@@ -11,6 +11,7 @@ os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+import pyvista as pv  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
@@ -65,7 +66,9 @@ def test_the_browser_camera_re_renders_at_the_canvas_size_on_a_new_plane(grid):
     cam = browser_camera((3.0, -2.0, 1.5), angle=35.0)
     assert follow.browser_camera(cam, 25, 20, 2.0)  # a 2× screen: a 50×40 canvas
     assert vol.result.window_size == (50, 40) and view.updates == 1 and follow.renders == 1
-    assert vol.actor is not old and not pl.renderer.HasViewProp(old) and pl.renderer.HasViewProp(vol.actor)
+    assert vol.actor is not old and pl.renderer.HasViewProp(vol.actor) and vol.actor.GetVisibility()
+    assert pl.renderer.HasViewProp(old)  # its id kept, its plane collapsed to a point: it draws nothing
+    assert np.ptp(pv.wrap(old.GetMapper().GetInputDataObject(0, 0)).points, axis=0).max() == 0
     assert old.GetTexture().GetInput().GetDimensions() == (1, 1, 1)  # the retired plane's image dropped
     ref = vol.renderer.render(camera=pa.Camera((3.0, -2.0, 1.5), (0, 0, 0), (0, 0, 1), view_angle=35.0),
                               window_size=(50, 40))
@@ -167,4 +170,28 @@ def test_show_turns_the_html_backend_into_the_static_picture(grid, monkeypatch):
     with pytest.warns(UserWarning, match="'html' backend cannot re-render"):
         show(pl, jupyter_backend="html")
     assert asked["jupyter_backend"] == "static"
+    pl.close()
+
+
+def test_the_switchable_view_stays_in_server_rendering(grid):
+    """trame's switchable view, switched to client rendering, would leave a replaced plane in the
+    browser beside the new one: pv_ambient starts it in server rendering and switches it back, with
+    a one-line warning."""
+    pytest.importorskip("trame_pyvista")
+    from trame.app import get_server
+    from trame.ui.vuetify3 import SinglePageLayout
+    from trame_pyvista.ui import get_viewer
+
+    pl = plotter(SIZE)
+    pa.add_ambient_volume(pl, grid, interactive=True)
+    server = get_server("pv-ambient-test-switch", client_type="vue3")
+    with SinglePageLayout(server) as layout, layout.content:
+        ambient_ui(pl, mode="trame", server=server, add_menu=False, default_server_rendering=False)
+    key = get_viewer(pl).SERVER_RENDERING
+    assert server.state[key] is True
+    server.state.ready()  # (change callbacks run once the state is ready, as when a page connects)
+    server.state[key] = False  # the user ticks client rendering
+    with pytest.warns(UserWarning, match="rendered on the server in this view"):
+        server.state.flush()
+    assert server.state[key] is True
     pl.close()
