@@ -310,7 +310,7 @@ class Follow:
             return False
         for vol in new:
             if self.mode == "client":
-                old = vol.new_plane(keep_old=True)
+                old = vol.new_plane()
                 _drop_image(old.GetTexture())
             self._sent[id(vol)] = vol.renders
         self.renders += 1

@@ -292,18 +292,15 @@ class AmbientVolume(DragStep):
         write_texture(self.actor.GetTexture(), result.to_uint8(**self.display))
         self.vtk_renderer.ResetCameraClippingRange()
 
-    def new_plane(self, keep_old=False):
-        """Show the picture on a new plane actor (``actor``); returns the old one, removed from the
-        renderer (``keep_old``: left in it, its corners collapsed to one point, so that it draws
-        nothing). A viewer that keeps what it uploaded per actor — vtk.js in the browser keeps a
-        texture's first image — then shows the new picture (:mod:`pv_ambient.pyvista.jupyter`)."""
+    def new_plane(self):
+        """Show the picture on a new plane actor (``actor``); the old one stays in the renderer,
+        its corners collapsed to one point so that it draws nothing, and is returned. A viewer that
+        keeps what it uploaded per actor — vtk.js in the browser keeps a texture's first image —
+        then shows the new picture (:mod:`pv_ambient.pyvista.jupyter`, client rendering)."""
         old = self.actor
         if old is not None:
-            if keep_old:
-                plane = pv.wrap(old.GetMapper().GetInputDataObject(0, 0))
-                plane.points = np.repeat(plane.points[:1], plane.n_points, axis=0)
-            else:
-                self.vtk_renderer.RemoveActor(old)
+            plane = pv.wrap(old.GetMapper().GetInputDataObject(0, 0))
+            plane.points = np.repeat(plane.points[:1], plane.n_points, axis=0)
             self.actor = None
         if self.result is not None:
             self._show(self.result)
