@@ -27,8 +27,8 @@ import math
 import warnings
 import weakref
 
-#: Seconds a view's size must stay unchanged before the volume renders at it (a notebook page
-#: settles its layout within about 0.1 s; a person resizing a window pauses longer).
+#: Seconds a view's size must stay unchanged before the volume renders at it: longer than the gaps
+#: between the resizes of a page settling its layout, short beside a render.
 RESIZE_DELAY = 0.25
 
 #: The views :func:`ambient_ui` builds, by the mode PyVista's ``plotter_ui`` names them.
@@ -89,7 +89,7 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
         re-rendered on the server from the browser's camera when a camera interaction ends;
         ``"trame"`` is kept in server rendering (module docstring).
     resize_delay : float, default: 0.25
-        Server rendering: seconds a size must hold before the volume renders at it (0: at once).
+        Seconds the view's size must hold before the volume renders at it (0: at once).
     **kwargs
         Passed to ``plotter_ui`` (``server=``, ``add_menu=``, …).
 
@@ -120,11 +120,15 @@ def ambient_ui(plotter, *, mode=None, resize_delay=RESIZE_DELAY, **kwargs):
     mode = mode if mode is not None else plotter._theme.trame.default_mode
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
-        raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")  # before any UI
+    _check_delay(resize_delay)  # before the UI is built
     view = plotter_ui(plotter, mode=mode, **kwargs)
     link(view, plotter, resize_delay=resize_delay)
     return view
+
+
+def _check_delay(resize_delay):
+    if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
+        raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")
 
 
 def view_mode(view):
@@ -142,8 +146,7 @@ def link(view, plotter, *, resize_delay=RESIZE_DELAY):
     browser's camera and size reports of a client view (:meth:`Follow.browser_camera`) and defer
     the volumes' re-renders on resizes. Call it before the page loads (while the layout is built,
     or before it is flushed). Returns the :class:`Follow` (also ``view.ambient_follow``)."""
-    if not (isinstance(resize_delay, (int, float)) and math.isfinite(resize_delay) and resize_delay >= 0):
-        raise ValueError(f"resize_delay must be a number of seconds >= 0, got {resize_delay!r}")
+    _check_delay(resize_delay)
     follow = Follow(plotter, view_mode(view), resize_delay)
     if follow.mode == "trame":
         _server_rendering_only(view, plotter)
@@ -187,8 +190,8 @@ def show(plotter, *, jupyter_backend=None, resize_delay=RESIZE_DELAY, **kwargs):
     (``"trame"``, ``"server"``, ``"client"``): PyVista builds its view as usual and :func:`link`
     binds it before the page loads. ``"static"`` and ``"none"`` are ``plotter.show()``'s own;
     ``"html"`` (a vtk.js scene exported without a server, whose camera would turn the picture as a
-    flat card) shows the ``"static"`` picture, with a one-line warning. ``kwargs`` as ``plotter.show`` (a ``handler`` in ``jupyter_kwargs``
-    still builds the output).
+    flat card) shows the ``"static"`` picture, with a one-line warning. ``kwargs`` as
+    ``plotter.show`` (a ``handler`` in ``jupyter_kwargs`` still builds the output).
 
     Examples
     --------
@@ -222,7 +225,7 @@ def show(plotter, *, jupyter_backend=None, resize_delay=RESIZE_DELAY, **kwargs):
 
 
 class Follow:
-    """The link between a plotter's ambient volumes and its trame view (built by :func:`ambient_ui`).
+    """The link between a plotter's ambient volumes and its trame view (made by :func:`link`).
 
     Attributes
     ----------
