@@ -14,7 +14,7 @@ export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache/$(firstword $(shell cat pv_ambient/_kernels/*.py | cksum))
 export MPLBACKEND := Agg
 
-.PHONY: demo test install clean bench docs gallery install-check gpu-kernels
+.PHONY: demo test test-browser install clean bench docs gallery install-check gpu-kernels
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,25 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# The trame views in a real browser (tests/browser, not part of make test): the jupyter extra and selenium
+# into .venv, Chromium and its driver from Debian's packages when /usr/bin/chromium is missing.
+# Screenshots and timings: build/test-browser.
+BROWSER_STAMP := $(VENV)/.installed-browser
+
+$(BROWSER_STAMP): $(STAMP)
+	$(PY) -m pip install -e ".[jupyter]" selenium
+	touch $(BROWSER_STAMP)
+
+test-browser: $(BROWSER_STAMP)
+	@if [ ! -x /usr/bin/chromium ] || [ ! -x /usr/bin/chromedriver ]; then \
+	  if command -v apt-get >/dev/null && [ "$$(id -u)" = 0 ]; then \
+	    apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends chromium chromium-driver; \
+	  else \
+	    echo "make test-browser needs Chromium and ChromeDriver: sudo apt-get install chromium chromium-driver"; exit 1; \
+	  fi; \
+	fi
+	PV_AMBIENT_BROWSER_OUT=$(CURDIR)/build/test-browser $(PY) -m pytest -q -m browser tests/browser
 
 bench: $(STAMP)
 	$(VENV)/bin/pv-ambient bench trade

@@ -5,6 +5,8 @@ The only part of pv_ambient that imports ``pyvista.plotting``. One concept a mod
 
 * :mod:`.accessor` — ``grid.ambient`` (the target of the ``pyvista.accessors`` entry point)
 * :mod:`.plotter` — :func:`add_ambient_volume` and :class:`AmbientVolume`
+* :mod:`.drag` — the ray step of an interactive drag
+* :mod:`.jupyter` — the volumes in PyVista's Jupyter (trame) views: ``show``, ``ambient_ui``
 * :mod:`.compare` — :func:`show_panels` and :func:`compare` (VTK's volume beside ours)
 * :mod:`.plane` — a render as a textured plane in a plotter (:func:`add_result_plane`)
 * :mod:`.geometry` — the opaque-mesh pass, depth → ray distance, compositing over meshes

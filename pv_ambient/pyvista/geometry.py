@@ -13,6 +13,36 @@ from ..rendering.result import RenderResult
 from .display import display_to_linear, display_values
 
 
+def is_plane(actor):
+    """Whether ``actor`` is one of pv_ambient's picture planes (never an occluder)."""
+    return bool(getattr(actor, "_pv_ambient_plane", False))
+
+
+def is_opaque_mesh(actor):
+    """An actor drawn by a mapper with input data, fully opaque (our planes excluded): a mesh that
+    occludes the volume."""
+    if is_plane(actor) or not actor.IsA("vtkActor"):
+        return False
+    mapper = actor.GetMapper()
+    if mapper is None or mapper.GetNumberOfInputPorts() < 1 or mapper.GetNumberOfInputConnections(0) < 1:
+        return False
+    prop = actor.GetProperty()
+    return prop is not None and prop.GetOpacity() >= 1.0 and not actor.HasTranslucentPolygonalGeometry()
+
+
+def background_image(renderer, size):
+    """``(H, W, 3)`` display colour of a ``vtkRenderer``'s background at ``size`` (VTK's gradient,
+    bottom colour to top colour, when the renderer has one), top row first."""
+    w, h = size
+    bottom = np.array(renderer.GetBackground(), dtype=np.float64)
+    if renderer.GetGradientBackground():
+        top = np.array(renderer.GetBackground2(), dtype=np.float64)
+        t = ((h - 1 - np.arange(h) + 0.5) / h)[:, None]  # 0 at the bottom row, top row first
+        rows = bottom + t * (top - bottom)
+        return np.broadcast_to(rows[:, None, :], (h, w, 3)).copy()
+    return np.broadcast_to(bottom, (h, w, 3)).copy()
+
+
 def composite_over_geometry(volume, colour, coverage, *, background=(0.0, 0.0, 0.0), display=None):
     """Composite a volume render that stopped at opaque geometry over that geometry's picture.
 

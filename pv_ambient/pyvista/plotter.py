@@ -18,45 +18,22 @@ from ..inputs.validation import check_int, check_real, check_window_size
 from ..rendering.renderer import Renderer
 from ..rendering.request import warn_unused_lights
 from ..rendering.result import DISPLAY_KEYS, RenderResult, unknown_display_keys
-from .geometry import GeometryPass, composite_over_geometry, ray_distance_from_depth
+from .drag import MOVING_RATE, STEP_GROW, STEP_SHRINK, DragStep  # noqa: F401
+from .geometry import (GeometryPass, background_image, composite_over_geometry, is_opaque_mesh,
+                       ray_distance_from_depth)
 from .plane import add_result_plane, write_texture
 from .refinement import Refinement
-
-
-#: A render window asking for at least this many frames per second is drawing an interactive frame
-#: (a camera drag): VTK's interactors ask for 15 during a drag and 0.0001 when the camera rests.
-MOVING_RATE = 1.0
-
-#: A drag frame slower than this fraction of the frame time the render window asks for doubles its
-#: ray step (up to ``interactive_step``); one faster than ``STEP_SHRINK`` of it halves the step.
-STEP_GROW = 1.0
-STEP_SHRINK = 0.35
 
 
 #: The models whose picture refines while the camera rests (samples accumulated by :meth:`AmbientVolume.refine`).
 MONTE_CARLO = ("path_traced", "progressive")
 
 
-def _is_plane(actor):
-    return bool(getattr(actor, "_pv_ambient_plane", False))
-
-
-def _is_opaque_mesh(actor):
-    """An actor drawn by a mapper with input data, fully opaque (our planes excluded)."""
-    if _is_plane(actor) or not actor.IsA("vtkActor"):
-        return False
-    mapper = actor.GetMapper()
-    if mapper is None or mapper.GetNumberOfInputPorts() < 1 or mapper.GetNumberOfInputConnections(0) < 1:
-        return False
-    prop = actor.GetProperty()
-    return prop is not None and prop.GetOpacity() >= 1.0 and not actor.HasTranslucentPolygonalGeometry()
-
-
 def _camera_key(cam):
     return (cam.position, cam.focal_point, cam.view_up, cam.view_angle, cam.parallel_projection, cam.parallel_scale)
 
 
-class AmbientVolume:
+class AmbientVolume(DragStep):
     """A pv_ambient volume shown in a plotter: what :func:`add_ambient_volume` returns.
 
     Unpacks as ``actor, result = add_ambient_volume(...)`` (the form of earlier versions).
@@ -122,6 +99,11 @@ class AmbientVolume:
         self.interactive_resolution = float(interactive_resolution)
         self.interactive_step = int(interactive_step)
         self.step_factor = 1  # the drag frames' ray step, in resting steps (a power of two)
+        self.rest_seconds = None  # the last resting picture's ray cast, seconds (predicts the first drag's step)
+        self.dragged = False  # whether a drag has set the step (a later drag starts at the step it ended on)
+        # A callable taking a function to call once the view's size has settled (debounced), or None:
+        # a size change then renders at once. The trame views set it (pv_ambient.pyvista.jupyter).
+        self.defer_resize = None
         self.actor = None
         self.result = None
         self.volume_result = None
@@ -179,7 +161,7 @@ class AmbientVolume:
         found = []
         for _ in range(actors.GetNumberOfItems()):
             a = actors.GetNextActor()
-            if a is None or not _is_opaque_mesh(a):
+            if a is None or not is_opaque_mesh(a):
                 continue
             if id(a) in hidden or a.GetVisibility():
                 found.append(a)
@@ -193,49 +175,10 @@ class AmbientVolume:
                 self._moving_step())
 
     @property
-    def _step_adapts(self) -> bool:
-        """Whether the ray step follows the frame time now: the camera moves, the model ray-casts."""
-        return self.moving and self.model != "path_traced"
-
-    def _moving_step(self):
-        """The ray step of a drag frame (``step_factor`` resting steps), or None: the resting step."""
-        if not self._step_adapts or self.step_factor == 1:
-            return None
-        step = self.options.get("step")
-        if step is None:
-            step = self.renderer.default_step(self.options.get("quality", "balanced"))
-        return step * self.step_factor
-
-    def _adapt_step(self, seconds):
-        """After a drag frame that took ``seconds``: double the drag step while frames are slower
-        than the render window's desired rate, halve it when they are well within it (as VTK's
-        ``AutoAdjustSampleDistances`` does)."""
-        if not self._step_adapts:
-            return
-        budget = 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()
-        if seconds > STEP_GROW * budget and 2 * self.step_factor <= self.interactive_step:
-            self.step_factor *= 2
-        elif seconds < STEP_SHRINK * budget and self.step_factor > 1:
-            self.step_factor //= 2
-
-    @property
     def _own_background(self):
         """Whether ``background=`` was given (a radiance painted behind the volume); otherwise
         the volume is composited over the plotter's own background colour."""
         return "background" in self.options
-
-    def _background_image(self, size):
-        """``(H, W, 3)`` display colour of the renderer's background (VTK's gradient, bottom
-        colour to top colour, when the renderer has one)."""
-        w, h = size
-        ren = self.vtk_renderer
-        bottom = np.array(ren.GetBackground(), dtype=np.float64)
-        if ren.GetGradientBackground():
-            top = np.array(ren.GetBackground2(), dtype=np.float64)
-            t = ((h - 1 - np.arange(h) + 0.5) / h)[:, None]  # 0 at the bottom row, top row first
-            rows = bottom + t * (top - bottom)
-            return np.broadcast_to(rows[:, None, :], (h, w, 3)).copy()
-        return np.broadcast_to(bottom, (h, w, 3)).copy()
 
     # -- rendering -------------------------------------------------------------------------------
     def update(self, force=False):
@@ -247,11 +190,41 @@ class AmbientVolume:
         state = self._state(cam, size)
         if not force and state == self._key:
             return False
+        if self._step_adapts and not self.dragged:
+            self._first_drag_step()
+            state = self._state(cam, size)
         t = time.perf_counter()
         self._draw(cam, size, occluders)
         self._key = self._state(*self._view())  # after the plane set the camera (VTK normalises it)
-        self._adapt_step(time.perf_counter() - t)
+        seconds = time.perf_counter() - t
+        if self.moving:
+            self._adapt_step(seconds)
+        else:  # the ray cast alone: the first picture's time also holds the per-scene stages
+            self.rest_seconds = self.volume_result.metadata.get("time_render", seconds)
         return True
+
+    def _resizing(self):
+        """Whether this frame only resizes the view while ``defer_resize`` is set: a page settling its
+        layout resizes it several times in a second; the picture is rendered once, when the size has
+        held (``defer_resize`` calls :meth:`settle`), the last one shown meanwhile."""
+        if self.defer_resize is None or self._key is None or self.moving:
+            return False
+        cam, size = self._view()
+        key = self._key
+        if tuple(size) == key[1] or _camera_key(cam) != key[0]:
+            return False
+        self.defer_resize(self.settle)
+        return True
+
+    def settle(self):
+        """Render at the view's present size if it changed (what a deferred resize calls); returns
+        whether it rendered."""
+        try:
+            return self.update()
+        except Exception as exc:  # called from an event loop: report, never raise into it
+            self.error = exc
+            warnings.warn(f"pv_ambient: interactive update failed: {exc!r}", RuntimeWarning, stacklevel=2)
+            return False
 
     def _render_volume(self, cam, size, **extra):
         opts = dict(self.options)
@@ -284,7 +257,7 @@ class AmbientVolume:
                 self.display["exposure"] = volume.display_exposure()
             colour, coverage = rgba[..., :3], rgba[..., 3]
             if not self._own_background:  # the plotter's background behind the meshes
-                colour = colour + (1.0 - coverage)[..., None] * self._background_image(size)
+                colour = colour + (1.0 - coverage)[..., None] * background_image(self.vtk_renderer, size)
                 coverage = np.ones_like(coverage)
             shown = composite_over_geometry(volume, colour, coverage,
                                             background=self.options.get("background", (0.0, 0.0, 0.0)),
@@ -302,7 +275,7 @@ class AmbientVolume:
         if "exposure" not in self.display:  # "auto" resolved once, on the first picture: no flicker
             self.display["exposure"] = volume.display_exposure()
         if not occluders and not self._own_background:
-            shown = composite_over_geometry(volume, self._background_image(size), np.ones(size[::-1]),
+            shown = composite_over_geometry(volume, background_image(self.vtk_renderer, size), np.ones(size[::-1]),
                                             display=self.display)
         self.volume_result, self.result, self.ray_end, self.geometry_image = volume, shown, ray_end, rgba
         self._show(shown)
@@ -318,6 +291,20 @@ class AmbientVolume:
         data.points = result.plane_corners()  # the texture is written in place: no new one is built
         write_texture(self.actor.GetTexture(), result.to_uint8(**self.display))
         self.vtk_renderer.ResetCameraClippingRange()
+
+    def new_plane(self):
+        """Show the picture on a new plane actor (``actor``); the old one stays in the renderer,
+        its corners collapsed to one point so that it draws nothing, and is returned. A viewer that
+        keeps what it uploaded per actor — vtk.js in the browser keeps a texture's first image —
+        then shows the new picture (:mod:`pv_ambient.pyvista.jupyter`, client rendering)."""
+        old = self.actor
+        if old is not None:
+            plane = pv.wrap(old.GetMapper().GetInputDataObject(0, 0))
+            plane.points = np.repeat(plane.points[:1], plane.n_points, axis=0)
+            self.actor = None
+        if self.result is not None:
+            self._show(self.result)
+        return old
 
     # -- path tracing: progressive refinement ----------------------------------------------------------
     def _first_pass(self, cam, size):
@@ -346,7 +333,7 @@ class AmbientVolume:
         self.volume_result = self.result = res
         size = ref.view[1]
         if not self._own_background:
-            self.result = composite_over_geometry(res, self._background_image(size), np.ones(size[::-1]),
+            self.result = composite_over_geometry(res, background_image(self.vtk_renderer, size), np.ones(size[::-1]),
                                                   display=self.display)
         self._show(self.result)
         self.renders += 1
@@ -357,6 +344,8 @@ class AmbientVolume:
     # -- interactive mode ---------------------------------------------------------------------------
     def _on_start(self, obj=None, event=None):
         try:
+            if self._resizing():
+                return
             self.update()
             self._ensure_timer()
         except Exception as exc:  # an exception must not escape into VTK's render loop
@@ -587,4 +576,7 @@ def add_ambient_volume(plotter, grid=None, *, model="emission_absorption", trans
         raise
     if interactive:
         vol.start()
+        from .jupyter import register  # the trame views find the plotter's volumes (docs/jupyter.rst)
+
+        register(vol)
     return vol

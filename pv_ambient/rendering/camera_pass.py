@@ -17,7 +17,7 @@ import numpy as np
 
 from .._kernels import records as K
 from .. import backend
-from ..inputs.lights import pack_lights
+from ..inputs.lights import PointLight, pack_lights
 from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS, QUALITY_PRESETS
 from .request import stage_bar
 from .result import RenderResult
@@ -104,9 +104,13 @@ def _bake(renderer, req, model, options, inputs, records, d2min):
     dkey = ((bool(options.get("flux_limited", False)), fold)
             + ((int(options["sweep_orders"]),) if options.get("sweep_orders", 0) else ())
             if model == "diffusion" else None)
+    # the d² clamp follows the ray step, but only point lights read it: a scene lit by directional
+    # lights (the default rig) keeps one bake for every step — an interactive drag's longer steps
+    # (docs/jupyter.rst, "Server rendering") do not re-bake
+    clamp = d2min if any(isinstance(lt, PointLight) for lt in inputs.lights) else None
     with stage_bar(req.progress_bar, "baked in-scattering") as bar:
         inc = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
-                              (model, d2min, radius, tkey, req.propagation, ph.canonical(), dkey),
+                              (model, clamp, radius, tkey, req.propagation, ph.canonical(), dkey),
                               diffusion=inputs.diffusion if fold else None)
         bar.update()
     return grec._replace(inc=inc[0], baked=inc[1]), MODEL_IDS["single_scattering" if fold else model]

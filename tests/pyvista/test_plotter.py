@@ -92,6 +92,7 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
                                 interactive=True, interactive_step=4)
     base = vol.renderer.default_step()
     win = pl.ren_win
+    vol.dragged = True  # the step as a drag left it (1): the first drag's prediction has its own test
     win.SetDesiredUpdateRate(1e4)  # a budget of 0.1 ms: every frame is too slow
     seen = []
     for _ in range(4):
@@ -113,6 +114,85 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
     ref = pa.render(grid, transfer_function=tf, lights=lights, model="ambient_scattering", camera=pl.camera,
                     window_size=SIZE)
     assert np.array_equal(vol.volume_result.radiance, ref.radiance)
+    pl.close()
+
+
+def test_the_first_drag_starts_at_the_step_its_budget_asks_for(scene):
+    """Why: the first drag found its step by doubling, one slow frame per doubling (issue 46:
+    1.6 s of stutter in a notebook). Its first frame's step is predicted from the resting picture's
+    ray cast (frame ≈ rest · resolution² / step, within the window's budget); a later drag starts at
+    the step the last one ended on."""
+    grid, tf, lights = scene
+    pl = plotter(SIZE)
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, lights=lights, model="ambient_scattering",
+                                interactive=True, interactive_step=16)
+    assert vol.rest_seconds == vol.volume_result.metadata["time_render"] > 0 and not vol.dragged
+    win = pl.ren_win
+    vol.rest_seconds = 1.0  # a resting ray cast of 1 s: at half resolution a drag frame takes 0.25 s / step
+    win.SetDesiredUpdateRate(10.0)  # budget 0.1 s: 0.25 / 4 = 0.0625 s, the smallest power of two within it
+    pl.camera.Azimuth(5.0)
+    win.Render()
+    assert vol.dragged and vol.moving
+    step = vol.volume_result.metadata["step"]
+    assert step == pytest.approx(4 * vol.renderer.default_step())
+    ended = vol.step_factor  # 4, or 2/8 as the frame's own time adapted it
+    win.SetDesiredUpdateRate(0.0001)
+    win.Render()
+    assert vol.step_factor == ended  # the rest keeps the drag's step for the next drag
+    vol.rest_seconds = 100.0  # no new prediction: the next drag starts where the last one ended
+    win.SetDesiredUpdateRate(10.0)
+    pl.camera.Azimuth(5.0)
+    win.Render()
+    assert vol.volume_result.metadata["step"] == pytest.approx(ended * vol.renderer.default_step())
+    pl.close()
+
+
+def test_a_drag_step_reuses_the_baked_light_of_a_directional_rig(scene, monkeypatch):
+    """Why: the baked in-scattering was keyed on the d² clamp, a quarter of the ray step, so each
+    new drag step re-baked it (≈ 0.44 s at 64³ in issue 46) although only point lights read the
+    clamp. With directional lights (the default rig) a new step bakes nothing; with a point light
+    the clamp still keys the bake."""
+    from pv_ambient.rendering.scene_stages import SceneStages
+
+    grid, tf, lights = scene
+    bakes = []
+    real = SceneStages.incident
+
+    def counting(self, model_id, lts, g, records, key, diffusion=None):
+        before = len(self.cache)
+        out = real(self, model_id, lts, g, records, key, diffusion=diffusion)
+        bakes.append(len(self.cache) != before)
+        return out
+
+    monkeypatch.setattr(SceneStages, "incident", counting)
+    for lts, rebakes in (([pa.DirectionalLight((1.0, -1.0, -1.0), 2.0)], False), (lights, True)):
+        r = pa.Renderer(grid, transfer_function=tf, lights=lts)
+        base = r.default_step()
+        bakes.clear()
+        for k in (1, 2, 4):
+            r.render(camera=CAMERA, window_size=(16, 12), model="ambient_scattering", step=base * k)
+        assert bakes == [True, rebakes, rebakes]
+
+
+def test_a_resize_renders_once_the_size_settles(scene):
+    """Why: a notebook page settling its layout resized the view five times in 2.7 s (1024×768,
+    30×30, 99×61, 985×511, 985×523), each a full render. With ``defer_resize`` (the trame views
+    set it) a frame that only changes the size renders nothing and asks for :meth:`settle`, which
+    renders once at the final size; a camera move still renders at once."""
+    grid, tf, lights = scene
+    pl = plotter(SIZE)
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, interactive=True)
+    asked = []
+    vol.defer_resize = asked.append
+    for size in ((30, 30), (40, 25), (70, 52)):
+        pl.ren_win.SetSize(*size)
+        pl.ren_win.Render()
+    assert vol.renders == 1 and asked == [vol.settle] * 3 and vol.result.window_size == SIZE
+    assert vol.settle() and vol.renders == 2 and vol.result.window_size == (70, 52)
+    assert not vol.settle()  # settled: nothing to do
+    pl.camera.Azimuth(10.0)
+    pl.ren_win.Render()
+    assert vol.renders == 3 and len(asked) == 3
     pl.close()
 
 
@@ -202,6 +282,7 @@ def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
     r = vol.renderer
     assert vol.result.metadata["spp"] == 2
     win = pl.ren_win
+    vol.dragged = True  # the drag at the resting step (the first drag's predicted step is tested on its own)
     win.SetDesiredUpdateRate(15.0)
     pl.camera.Azimuth(7.0)
     win.Render()

@@ -1,0 +1,91 @@
+"""The ray step of an interactive drag (docs/jupyter.rst, "Server rendering"): while the camera
+is dragged the picture is rendered at a longer ray step, chosen so that a frame fits the time the
+render window asks for, as VTK's ``AutoAdjustSampleDistances`` does for its own mappers.
+"""
+
+from __future__ import annotations
+
+#: A render window asking for at least this many frames per second is drawing an interactive frame
+#: (a camera drag): VTK's interactors ask for 15 during a drag and 0.0001 when the camera rests.
+MOVING_RATE = 1.0
+
+#: A drag frame slower than this fraction of the frame time the render window asks for doubles its
+#: ray step (up to ``interactive_step``); one faster than ``STEP_SHRINK`` of it halves the step.
+STEP_GROW = 1.0
+STEP_SHRINK = 0.35
+
+
+def first_factor(rest_seconds, resolution, budget, cap):
+    """The first drag frame's ray step, in resting steps: a ray cast costs about its pixels times
+    its samples, so a frame at ``resolution`` of the window per axis and ``k`` resting steps takes
+    about ``rest_seconds · resolution² / k``. Returns the smallest power of two ``k ≤ cap`` that
+    brings it within ``budget`` seconds (``cap`` when none does).
+
+    Examples
+    --------
+    >>> from pv_ambient.pyvista.drag import first_factor
+    >>> first_factor(1.0, 0.5, 0.1, 16)   # 0.25 s at the resting step: 4 steps make 0.0625 s
+    4
+    >>> first_factor(1.0, 0.5, 0.01, 16)  # never within 10 ms: the cap
+    16
+    """
+    predicted = rest_seconds * resolution ** 2
+    k = 1
+    while predicted / k > STEP_GROW * budget and 2 * k <= cap:
+        k *= 2
+    return k
+
+
+def adapted_factor(factor, seconds, budget, cap):
+    """The next drag frame's ray step after one at ``factor`` resting steps took ``seconds``:
+    doubled while frames are slower than ``budget`` (up to ``cap``), halved when they take less than
+    ``STEP_SHRINK`` of it.
+
+    Examples
+    --------
+    >>> from pv_ambient.pyvista.drag import adapted_factor
+    >>> adapted_factor(2, 0.2, 0.066, 16), adapted_factor(2, 0.01, 0.066, 16), adapted_factor(16, 0.2, 0.066, 16)
+    (4, 1, 16)
+    """
+    if seconds > STEP_GROW * budget and 2 * factor <= cap:
+        return 2 * factor
+    if seconds < STEP_SHRINK * budget and factor > 1:
+        return factor // 2
+    return factor
+
+
+class DragStep:
+    """The drag-step policy of :class:`~pv_ambient.pyvista.plotter.AmbientVolume` (its base): reads
+    ``moving``, ``model``, ``options``, ``renderer``, ``plotter``, ``interactive_resolution``,
+    ``interactive_step``, and keeps ``step_factor``, ``rest_seconds`` and ``dragged``."""
+
+    @property
+    def _step_adapts(self) -> bool:
+        """Whether the ray step follows the frame time now: the camera moves, the model ray-casts."""
+        return self.moving and self.model != "path_traced"
+
+    def _moving_step(self):
+        """The ray step of a drag frame (``step_factor`` resting steps), or None: the resting step."""
+        if not self._step_adapts or self.step_factor == 1:
+            return None
+        step = self.options.get("step")
+        if step is None:
+            step = self.renderer.default_step(self.options.get("quality", "balanced"))
+        return step * self.step_factor
+
+    def _first_drag_step(self):
+        """At the first drag frame: the step predicted from the resting picture (:func:`first_factor`)."""
+        if self.dragged or not self._step_adapts:
+            return
+        self.dragged = True
+        if self.rest_seconds:
+            self.step_factor = first_factor(self.rest_seconds, self.interactive_resolution, self._budget(),
+                                            self.interactive_step)
+
+    def _adapt_step(self, seconds):
+        """After a drag frame that took ``seconds``: the next frame's step (:func:`adapted_factor`)."""
+        if self._step_adapts:
+            self.step_factor = adapted_factor(self.step_factor, seconds, self._budget(), self.interactive_step)
+
+    def _budget(self):
+        return 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()
