@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ._jit import driver, prange, scalar
 from .interp import trilinear
 from .lightvol import TIE
-from .medium import hat_sub, scattering_at
+from .medium import hat_axis_weight, scattering_at
 
 
 # -- direct irradiance averaged over control volumes (§1) ---------------------------------------
@@ -216,6 +218,101 @@ def transmittance_cv(box_lo, box_hi, tau, tlo, tinv, ns, e_out):
 HAT_TINY = 1e-280
 
 
+@scalar
+def hat_half_row(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_point, lvec, tau, tlo, tinv,
+                 px, b, H, slot):
+    """Row ``b`` of the half-index plane at ``px`` for :func:`hat_source`: at each half-index point p
+    its box weight ``f`` (:func:`.medium.hat_axis_weight` at offset 0: ½ on a face, 0 outside) and
+    ``f·E·(σs rgb, σt, σt·u)``, E the direct light per unit power there, u its unit direction."""
+    py = 0.5 * b - 0.5
+    fy = hat_axis_weight(px, 0.0, box_lo[0], box_hi[0]) * hat_axis_weight(py, 0.0, box_lo[1], box_hi[1])
+    for c in range(H.shape[2]):
+        pz = 0.5 * c - 0.5
+        f = fy * hat_axis_weight(pz, 0.0, box_lo[2], box_hi[2])
+        for m in range(8):
+            H[slot, b, c, m] = 0.0
+        H[slot, b, c, 0] = f
+        if f == 0.0:
+            continue
+        st, sr, sg, sb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
+        if st <= 0.0:
+            continue
+        e = math.exp(-tau_at(tau, tlo, tinv, px, py, pz))
+        if is_point:
+            wx = M[0, 0] * px + M[0, 1] * py + M[0, 2] * pz + M[0, 3] - lvec[0]
+            wy = M[1, 0] * px + M[1, 1] * py + M[1, 2] * pz + M[1, 3] - lvec[1]
+            wz = M[2, 0] * px + M[2, 1] * py + M[2, 2] * pz + M[2, 3] - lvec[2]
+            d2 = wx * wx + wy * wy + wz * wz
+            if not (d2 > 0.0):  # on the light: only nodes next to it read it, and they are skipped
+                continue
+            e /= d2
+            d = math.sqrt(d2)
+            vx = wx / d
+            vy = wy / d
+            vz = wz / d
+        else:
+            vx = lvec[0]
+            vy = lvec[1]
+            vz = lvec[2]
+        fe = f * e
+        H[slot, b, c, 1] = fe * sr
+        H[slot, b, c, 2] = fe * sg
+        H[slot, b, c, 3] = fe * sb
+        H[slot, b, c, 4] = fe * st
+        H[slot, b, c, 5] = fe * st * vx
+        H[slot, b, c, 6] = fe * st * vy
+        H[slot, b, c, 7] = fe * st * vz
+
+
+@scalar
+def hat_node(i, j, k, is_point, lvec, M, H, q_out, w_out):
+    """Node (i, j, k) of :func:`hat_source` from the three half-index planes about it in ``H``."""
+    wsum = 0.0
+    qr = 0.0
+    qg = 0.0
+    qb = 0.0
+    bw = 0.0
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    for a in range(3):
+        slot = (2 * i + a) % 3
+        ha = 1.0 if a == 1 else 0.5
+        for bb in range(3):
+            hb = ha * (1.0 if bb == 1 else 0.5)
+            b = 2 * j + bb
+            for cc in range(3):
+                w = hb * (1.0 if cc == 1 else 0.5)
+                c = 2 * k + cc
+                wsum += w * H[slot, b, c, 0]
+                qr += w * H[slot, b, c, 1]
+                qg += w * H[slot, b, c, 2]
+                qb += w * H[slot, b, c, 3]
+                bw += w * H[slot, b, c, 4]
+                ux += w * H[slot, b, c, 5]
+                uy += w * H[slot, b, c, 6]
+                uz += w * H[slot, b, c, 7]
+    q_out[i, j, k, 0] = qr / wsum
+    q_out[i, j, k, 1] = qg / wsum
+    q_out[i, j, k, 2] = qb / wsum
+    if not is_point:  # one direction everywhere
+        w_out[i, j, k, 0] = lvec[0]
+        w_out[i, j, k, 1] = lvec[1]
+        w_out[i, j, k, 2] = lvec[2]
+    elif bw > HAT_TINY:
+        w_out[i, j, k, 0] = ux / bw
+        w_out[i, j, k, 1] = uy / bw
+        w_out[i, j, k, 2] = uz / bw
+    else:  # no light reaches the support (or only a subnormal trace): the node's own direction
+        wx = M[0, 0] * i + M[0, 1] * j + M[0, 2] * k + M[0, 3] - lvec[0]
+        wy = M[1, 0] * i + M[1, 1] * j + M[1, 2] * k + M[1, 3] - lvec[1]
+        wz = M[2, 0] * i + M[2, 1] * j + M[2, 2] * k + M[2, 3] - lvec[2]
+        d = math.sqrt(wx * wx + wy * wy + wz * wz)
+        w_out[i, j, k, 0] = wx / d
+        w_out[i, j, k, 1] = wy / d
+        w_out[i, j, k, 2] = wz / d
+
+
 @driver
 def hat_source(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_point, pl, lvec, tau, tlo, tinv,
                near, q_out, w_out, done):
@@ -227,10 +324,23 @@ def hat_source(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_p
     light grid. ``w_out``: the light's mean propagation direction weighted by σt E (world;
     |w| ≤ 1; ``lvec`` for a directional light). Nodes whose hat support comes within ``near``
     index units (max-norm) of a point light, where 1/d² is singular, are skipped and flagged
-    ``done = False`` (the caller keeps their control-volume form)."""
+    ``done = False`` (the caller keeps their control-volume form).
+
+    Neighbouring nodes share sub-samples (a node's 27 lie on the half-index grid), so each
+    half-index point is classified and lit once (:func:`hat_half_row`), plane by plane along the
+    first axis with the three planes a node plane needs kept in a ring, and each node sums its 27
+    with the hat's weights (:func:`hat_node`): about 8 evaluations per node instead of 27."""
     nx, ny, nz = done.shape
-    for i in prange(nx):
-        for j in range(ny):
+    H = np.zeros((3, 2 * ny + 1, 2 * nz + 1, 8))  # half-index planes p = hh/2 − ½, hh = 0 … 2n
+    top = -1  # the last half-index plane computed
+    for i in range(nx):
+        for hh in range(max(top + 1, 2 * i), 2 * i + 3):
+            px = 0.5 * hh - 0.5
+            for b in prange(2 * ny + 1):
+                hat_half_row(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_point, lvec, tau,
+                             tlo, tinv, px, b, H, hh % 3)
+            top = hh
+        for j in prange(ny):
             for k in range(nz):
                 if is_point:
                     # less TIE: a light on a sample or half-way between two is decided the same
@@ -240,66 +350,7 @@ def hat_source(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is_p
                         done[i, j, k] = False
                         continue
                 done[i, j, k] = True
-                wsum = 0.0
-                qr = 0.0
-                qg = 0.0
-                qb = 0.0
-                bw = 0.0
-                ux = 0.0
-                uy = 0.0
-                uz = 0.0
-                for q in range(27):
-                    px, py, pz, w = hat_sub(q, i, j, k, box_lo, box_hi)
-                    if w == 0.0:
-                        continue
-                    wsum += w
-                    st, sr, sg, sb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
-                    if st <= 0.0:
-                        continue
-                    e = math.exp(-tau_at(tau, tlo, tinv, px, py, pz))
-                    if is_point:
-                        wx = M[0, 0] * px + M[0, 1] * py + M[0, 2] * pz + M[0, 3] - lvec[0]
-                        wy = M[1, 0] * px + M[1, 1] * py + M[1, 2] * pz + M[1, 3] - lvec[1]
-                        wz = M[2, 0] * px + M[2, 1] * py + M[2, 2] * pz + M[2, 3] - lvec[2]
-                        d2 = wx * wx + wy * wy + wz * wz
-                        e /= d2
-                        d = math.sqrt(d2)
-                        vx = wx / d
-                        vy = wy / d
-                        vz = wz / d
-                    else:
-                        vx = lvec[0]
-                        vy = lvec[1]
-                        vz = lvec[2]
-                    we = w * e
-                    qr += we * sr
-                    qg += we * sg
-                    qb += we * sb
-                    bw += we * st
-                    ux += we * st * vx
-                    uy += we * st * vy
-                    uz += we * st * vz
-                q_out[i, j, k, 0] = qr / wsum
-                q_out[i, j, k, 1] = qg / wsum
-                q_out[i, j, k, 2] = qb / wsum
-                if not is_point:  # one direction everywhere
-                    w_out[i, j, k, 0] = lvec[0]
-                    w_out[i, j, k, 1] = lvec[1]
-                    w_out[i, j, k, 2] = lvec[2]
-                elif bw > HAT_TINY:
-                    w_out[i, j, k, 0] = ux / bw
-                    w_out[i, j, k, 1] = uy / bw
-                    w_out[i, j, k, 2] = uz / bw
-                else:  # no light reaches the support (or only a subnormal trace): the node's own direction
-                    wx = M[0, 0] * i + M[0, 1] * j + M[0, 2] * k + M[0, 3] - lvec[0]
-                    wy = M[1, 0] * i + M[1, 1] * j + M[1, 2] * k + M[1, 3] - lvec[1]
-                    wz = M[2, 0] * i + M[2, 1] * j + M[2, 2] * k + M[2, 3] - lvec[2]
-                    d = math.sqrt(wx * wx + wy * wy + wz * wz)
-                    w_out[i, j, k, 0] = wx / d
-                    w_out[i, j, k, 1] = wy / d
-                    w_out[i, j, k, 2] = wz / d
-
-
+                hat_node(i, j, k, is_point, lvec, M, H, q_out, w_out)
 @driver
 def first_collision(sig, alb, E, g, g_per_node, g0, omega, with_q1, q0, q1):
     """``q0 = a σt E`` and, when ``with_q1``, ``q1 = g q0 ω`` per node and channel, written into
