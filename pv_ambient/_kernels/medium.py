@@ -274,32 +274,69 @@ def hat_sub(q, i, j, k, box_lo, box_hi):
     return i + ox, j + oy, k + oz, w
 
 
+@scalar
+def hat_medium_row(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, px, b, H, slot):
+    """Row ``b`` of the half-index plane at ``px`` for :func:`hat_medium`: at each half-index point
+    its box weight ``f`` (:func:`hat_axis_weight` at offset 0) and ``f·(σt, σs rgb)``."""
+    py = 0.5 * b - 0.5
+    fy = hat_axis_weight(px, 0.0, box_lo[0], box_hi[0]) * hat_axis_weight(py, 0.0, box_lo[1], box_hi[1])
+    for c in range(H.shape[2]):
+        pz = 0.5 * c - 0.5
+        f = fy * hat_axis_weight(pz, 0.0, box_lo[2], box_hi[2])
+        H[slot, b, c, 0] = f
+        if f == 0.0:
+            for m in range(1, 5):
+                H[slot, b, c, m] = 0.0
+            continue
+        t, r, g, bb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
+        H[slot, b, c, 1] = f * t
+        H[slot, b, c, 2] = f * r
+        H[slot, b, c, 3] = f * g
+        H[slot, b, c, 4] = f * bb
+
+
 @driver
 def hat_medium(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, sig_out, sigs_out):
     """Each node's hat-weighted mean of σt (``sig_out``, (nx, ny, nz)) and of σs rgb
     (``sigs_out``, (nx, ny, nz, 3)), ``∫ hat_n σ dV / ∫ hat_n dV``, classified at 3³ half-index
     sub-samples (:func:`hat_axis_weight`; box ``[box_lo, box_hi]`` in index units). Summed over
     the nodes with their volumes it is the integral of the classified field (up to the
-    quadrature), where the node samples' own values are not: classification is not linear."""
+    quadrature), where the node samples' own values are not: classification is not linear.
+
+    The sub-samples lie on the half-index grid and neighbouring nodes share them: each is
+    classified once (:func:`hat_medium_row`), plane by plane along the first axis with the three
+    planes a node plane needs kept in a ring, and each node sums its 27 with the hat's weights
+    (1 at the node, ½ half-way, per axis)."""
     nx, ny, nz = sig_out.shape
-    for i in prange(nx):
-        for j in range(ny):
+    H = np.zeros((3, 2 * ny + 1, 2 * nz + 1, 5))  # half-index planes p = hh/2 − ½, hh = 0 … 2n
+    top = -1
+    for i in range(nx):
+        for hh in range(max(top + 1, 2 * i), 2 * i + 3):
+            px = 0.5 * hh - 0.5
+            for b in prange(2 * ny + 1):
+                hat_medium_row(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, px, b, H, hh % 3)
+            top = hh
+        for j in prange(ny):
             for k in range(nz):
                 wsum = 0.0
                 st = 0.0
                 sr = 0.0
                 sg = 0.0
                 sb = 0.0
-                for q in range(27):
-                    px, py, pz, w = hat_sub(q, i, j, k, box_lo, box_hi)
-                    if w == 0.0:
-                        continue
-                    t, r, g, bb = scattering_at(mode, field, table, lut_lo, lut_inv, aux, px, py, pz)
-                    wsum += w
-                    st += w * t
-                    sr += w * r
-                    sg += w * g
-                    sb += w * bb
+                for a in range(3):
+                    slot = (2 * i + a) % 3
+                    ha = 1.0 if a == 1 else 0.5
+                    for bb in range(3):
+                        hb = ha * (1.0 if bb == 1 else 0.5)
+                        b = 2 * j + bb
+                        for cc in range(3):
+                            w = hb * (1.0 if cc == 1 else 0.5)
+                            c = 2 * k + cc
+                            wsum += w * H[slot, b, c, 0]
+                            st += w * H[slot, b, c, 1]
+                            sr += w * H[slot, b, c, 2]
+                            sg += w * H[slot, b, c, 3]
+                            sb += w * H[slot, b, c, 4]
                 sig_out[i, j, k] = st / wsum
                 sigs_out[i, j, k, 0] = sr / wsum
                 sigs_out[i, j, k, 1] = sg / wsum

@@ -83,3 +83,30 @@ def test_hat_source_equals_its_node_by_node_definition(is_point, cell):
     assert np.allclose(args[16][d], ref[16][d], rtol=1e-13, atol=0.0)
     ok = d & np.isfinite(ref[17][..., 0])
     assert np.allclose(args[17][ok], ref[17][ok], rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("cell", [False, True])
+def test_hat_medium_equals_its_node_by_node_definition(cell):
+    """medium.hat_medium (sub-samples shared between nodes) against the hat-weighted means
+    evaluated node by node from medium.hat_sub, 1e-13."""
+    from pv_ambient._kernels.medium import hat_medium
+
+    rng = np.random.default_rng(5)
+    shape = (6, 5, 4)
+    field = rng.random(shape).astype(np.float32)
+    table = np.stack([np.linspace(0.0, 6.0, 16) ** 1.5, np.linspace(0.9, 0.3, 16), np.linspace(0.2, 0.8, 16),
+                      np.full(16, 0.5)], axis=1).astype(np.float32)
+    half = 0.5 if cell else 0.0
+    box_lo, box_hi = np.full(3, -half), np.array(shape, np.float64) - 1.0 + half
+    aux = np.zeros((1, 1, 1, 3), np.float32)
+    sig, sigs = np.zeros(shape), np.zeros(shape + (3,))
+    hat_medium(MODE_LUT, field, table, 0.0, 15.0, aux, box_lo, box_hi, sig, sigs)
+    for i, j, k in np.ndindex(*shape):
+        ws, acc = 0.0, np.zeros(4)
+        for s in range(27):
+            px, py, pz, w = hat_sub.py_func(s, i, j, k, box_lo, box_hi)
+            if w:
+                ws += w
+                acc += w * np.array(scattering_at(MODE_LUT, field, table, 0.0, 15.0, aux, px, py, pz))
+        assert sig[i, j, k] == pytest.approx(acc[0] / ws, rel=1e-13)
+        assert np.allclose(sigs[i, j, k], acc[1:] / ws, rtol=1e-13, atol=0.0)
