@@ -37,10 +37,54 @@ MODES = ("trame", "server", "client")
 _VOLUMES = weakref.WeakKeyDictionary()  # plotter → its AmbientVolumes (registered by add_ambient_volume)
 
 
+#: The backends whose view :func:`show` links (``"html"`` it turns into the static picture).
+TRAME_BACKENDS = ("trame", "server", "client", "html")
+
+
 def register(volume):
     """Remember ``volume`` (an :class:`~pv_ambient.pyvista.plotter.AmbientVolume`) as one of its
-    plotter's volumes (:func:`add_ambient_volume` calls it)."""
+    plotter's volumes (:func:`add_ambient_volume` calls it), and route the plotter's own ``show``
+    through :func:`show` in a notebook (:func:`route_show`)."""
     _VOLUMES.setdefault(volume.plotter, weakref.WeakSet()).add(volume)
+    route_show(volume.plotter)
+
+
+def route_show(plotter):
+    """Make ``plotter.show()`` in a notebook, with a trame backend (given or the theme's), go through
+    :func:`show`, so that ``pl.show(jupyter_backend="client")`` re-renders the volume from the
+    browser's camera as ``show(pl, jupyter_backend="client")`` does rather than turn a flat card.
+    Outside a notebook (``plotter.notebook`` false: scripts, off-screen renders) and for the
+    ``"static"``/``"none"`` backends ``plotter.show`` is PyVista's, unchanged. Set once per plotter,
+    as an attribute of the instance.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> import pv_ambient
+    >>> from pv_ambient import datasets
+    >>> pl = pv.Plotter(off_screen=True, window_size=(32, 24))
+    >>> vol = pv_ambient.add_ambient_volume(pl, datasets.cloud(n=12), interactive=True)
+    >>> "show" in vars(pl)  # routed; off-screen it calls PyVista's show
+    True
+    """
+    if "show" in vars(plotter):
+        return
+    ref = weakref.ref(plotter)
+
+    def routed(*args, **kwargs):
+        pl = ref()
+        backend = kwargs.get("jupyter_backend")
+        if backend is None:
+            import pyvista
+
+            backend = pyvista.global_theme.jupyter_backend
+        if (pl is not None and not args and getattr(pl, "notebook", False) and str(backend).lower() in TRAME_BACKENDS
+                and volumes_of(pl)):
+            return show(pl, **kwargs)
+        return type(pl).show(pl, *args, **kwargs)  # PyVista's (the class's: looked up now)
+
+    routed.__doc__ = type(plotter).show.__doc__
+    plotter.show = routed
 
 
 def volumes_of(plotter):
@@ -220,8 +264,9 @@ def show(plotter, *, jupyter_backend=None, resize_delay=RESIZE_DELAY, **kwargs):
 
         return Widget(viewer, src, **kw)
 
-    return plotter.show(jupyter_backend=jupyter_backend, jupyter_kwargs={**jupyter_kwargs, "handler": linked},
-                        **kwargs)
+    # PyVista's own show (the class's: the plotter's may be routed here, route_show)
+    return type(plotter).show(plotter, jupyter_backend=jupyter_backend,
+                              jupyter_kwargs={**jupyter_kwargs, "handler": linked}, **kwargs)
 
 
 class Follow:

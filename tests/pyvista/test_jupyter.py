@@ -144,12 +144,12 @@ def test_show_links_the_views_plotter_show_builds(grid, monkeypatch):
     vol = pa.add_ambient_volume(pl, grid, interactive=True)
     asked = {}
 
-    def fake_show(**kwargs):  # what PyVista's show does with the handler in Jupyter
+    def fake_show(self, **kwargs):  # what PyVista's show does with the handler in Jupyter
         asked.update(kwargs)
-        viewer = initialize(get_server("pv-ambient-test-show", client_type="vue3"), pl, mode="client")
+        viewer = initialize(get_server("pv-ambient-test-show", client_type="vue3"), self, mode="client")
         return kwargs["jupyter_kwargs"]["handler"](viewer, "http://x/index.html", width="100%")
 
-    monkeypatch.setattr(pl, "show", fake_show)
+    monkeypatch.setattr(type(pl), "show", fake_show)
     out = show(pl, jupyter_backend="client", jupyter_kwargs=dict(handler=lambda viewer, src, **kw: (viewer, src, kw)))
     viewer, src, kw = out
     assert asked["jupyter_backend"] == "client" and src == "http://x/index.html" and kw == {"width": "100%"}
@@ -166,10 +166,29 @@ def test_show_turns_the_html_backend_into_the_static_picture(grid, monkeypatch):
     pl = plotter(SIZE)
     pa.add_ambient_volume(pl, grid, interactive=True)
     asked = {}
-    monkeypatch.setattr(pl, "show", lambda **kw: asked.update(kw))
+    monkeypatch.setattr(type(pl), "show", lambda self, **kw: asked.update(kw))
     with pytest.warns(UserWarning, match="'html' backend cannot re-render"):
         show(pl, jupyter_backend="html")
     assert asked["jupyter_backend"] == "static"
+    pl.close()
+
+
+@pytest.mark.parametrize("notebook, backend, routed", [(True, "client", True), (True, None, True),
+                                                      (True, "static", False), (False, "client", False)])
+def test_plotter_show_goes_through_show_in_a_notebook(grid, monkeypatch, notebook, backend, routed):
+    """Once the plotter holds an interactive ambient volume, its own ``show()`` in a notebook with a
+    trame backend (given, or the theme's) is :func:`show`'s — the view gets linked, no flat card;
+    outside a notebook, or with the static backend, it is PyVista's show, untouched."""
+    pl = plotter(SIZE)
+    pa.add_ambient_volume(pl, grid, interactive=True)
+    asked = []
+    monkeypatch.setattr(type(pl), "show", lambda self, **kw: asked.append(kw))
+    monkeypatch.setattr(pv.global_theme, "jupyter_backend", "trame")
+    pl.notebook = notebook
+    pl.show(**({} if backend is None else {"jupyter_backend": backend}))
+    (kw,) = asked
+    assert ("handler" in kw.get("jupyter_kwargs", {})) == routed
+    pl.notebook = False
     pl.close()
 
 
