@@ -49,24 +49,10 @@ def index_ray(w2i, ox, oy, oz, dx, dy, dz):
 
 
 @scalar(inline=True)
-def medium_sigma_color(mode, medium, x, y, z):
-    """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z) of ``medium`` (a
-    :class:`.records.Medium`) classified in ``mode`` (``medium.mode``, or the constant of a ray-cast
-    specialisation); (k0, k1, f) locate the table entries for :func:`medium_albedo_emission` (unused
-    in GRID mode). Colour is the emission for a physical TF."""
-    field, table, lut_lo, lut_inv, aux = medium.field, medium.table, medium.lut_lo, medium.lut_inv, medium.aux
-    s = trilinear(field, x, y, z)
-    if mode == MODE_GRID:
-        return (s, trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5),
-                0, 0, 0.0)
-    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
-    return (lut_value(table, k0, k1, f, 0), lut_value(table, k0, k1, f, 7), lut_value(table, k0, k1, f, 8),
-            lut_value(table, k0, k1, f, 9), k0, k1, f)
-
-
-@scalar(inline=True)
 def medium_albedo_emission(mode, medium, k0, k1, f, x, y, z):
-    """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color` (``mode`` as there)."""
+    """(albedo rgb, emission rgb) at index-space point (x, y, z) of ``medium`` (a :class:`.records.Medium`)
+    classified in ``mode`` (``medium.mode``, or the constant of a ray-cast specialisation); (k0, k1, f)
+    locate the table entries (:func:`.tracking.sigma_lookup`; unused in GRID mode)."""
     table, aux = medium.table, medium.aux
     if mode == MODE_GRID:
         return (trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
@@ -78,10 +64,10 @@ def medium_albedo_emission(mode, medium, k0, k1, f, x, y, z):
 @scalar(inline=True)
 def medium_sigma(mode, medium, x, y, z):
     """(σt, s) at index-space point (x, y, z) of ``medium`` classified in ``mode`` (as
-    :func:`medium_sigma_color`): the extinction and the interpolated scalar (σt itself in GRID mode),
-    from which :func:`medium_optics` classifies the rest. Why not the located table entries of
-    :func:`medium_sigma_color`: the march holds one value, not three, across a lit model's loop over
-    the lights, and a GPU thread's registers are what that loop is short of."""
+    :func:`medium_albedo_emission`): the extinction and the interpolated scalar (σt itself in GRID mode),
+    from which :func:`medium_optics` classifies the rest. Why not the located table entries (k0, k1, f):
+    the march holds one value, not three, across a lit model's loop over the lights, and a GPU thread's
+    registers are what that loop is short of."""
     s = trilinear(medium.field, x, y, z)
     if mode == MODE_GRID:
         return s, s
@@ -93,8 +79,8 @@ def medium_sigma(mode, medium, x, y, z):
 def medium_optics(mode, medium, s, x, y, z):
     """(colour rgb, albedo rgb, emission rgb) at the point where :func:`medium_sigma` gave the scalar
     ``s``: the table entries located again from ``s`` (LUT mode) or ``aux`` interpolated at (x, y, z)
-    (GRID mode, where the colour is the emission) — the values of :func:`medium_sigma_color` and
-    :func:`medium_albedo_emission`. What a caller leaves unused is not computed (inlined)."""
+    (GRID mode, where the colour is the emission) — the values of :func:`medium_albedo_emission`, and
+    the colour (table columns 7–9). What a caller leaves unused is not computed (inlined)."""
     if mode == MODE_GRID:
         aux = medium.aux
         er, eg, eb = trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5)
