@@ -72,7 +72,7 @@ from pv_ambient._kernels import records as K  # noqa: E402
 from pv_ambient._kernels.geometry import camera_ray, ray_box  # noqa: E402
 from pv_ambient._kernels.majorant import block_at, block_span  # noqa: E402
 from pv_ambient._kernels.medium import MODE_GRID  # noqa: E402
-from pv_ambient._kernels.raycast import index_ray, medium_sigma_color  # noqa: E402
+from pv_ambient._kernels.raycast import index_ray, medium_sigma  # noqa: E402
 from pv_ambient.inputs.transfer import COL_COLOR, COL_SIGMA  # noqa: E402
 from pv_ambient.rendering.presets import MAJORANT_BLOCK  # noqa: E402
 
@@ -244,7 +244,7 @@ def count_samples(view, medium, step, ert, W, H, counts, trans):
                             continue
                         t_block = tex
                     n += 1
-                    sig = medium_sigma_color(medium.mode, medium, x, y, z)[0]
+                    sig = medium_sigma(medium.mode, medium, x, y, z)[0]
                     if sig > 0.0:
                         T *= np.exp(-sig * (te - t))
                         if T < ert:

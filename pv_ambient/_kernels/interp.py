@@ -10,13 +10,20 @@ def cell_coords(x, n):
     """Lower index, upper index and fraction of continuous coordinate ``x`` on ``n`` samples.
 
     Positions outside [0, n−1] are clamped (the nearest sample's value continues to the box
-    edge, which for cell data lies half a cell beyond the outermost centre)."""
+    edge, which for cell data lies half a cell beyond the outermost centre).
+
+    The upper clamp compares the integer index with ``n``, not ``x`` with ``n − 1``: the same
+    result, but a CUDA thread then holds no float copy of ``n − 1`` per axis and grid across its
+    sample loop (the compiler hoists one there for every interpolated array; ``n`` itself is a
+    kernel parameter, read from constant memory). ``x < 1e9`` (beyond any grid) keeps ``int()``
+    away from ``inf`` and NaN, which clamp to the last sample."""
     if x <= 0.0:
         return 0, 0, 0.0
-    if x >= n - 1:
-        return n - 1, n - 1, 0.0
-    i0 = int(x)
-    return i0, i0 + 1, x - i0
+    if x < 1e9:
+        i0 = int(x)
+        if i0 + 1 < n:
+            return i0, i0 + 1, x - i0
+    return n - 1, n - 1, 0.0
 
 
 @scalar(inline=True)

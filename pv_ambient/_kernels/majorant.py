@@ -56,11 +56,13 @@ def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
 
 @scalar(inline=True)
 def block_of(x, block, m):
-    """Block index of continuous index coordinate ``x`` (clamped to [0, m−1])."""
+    """Block index of continuous index coordinate ``x`` (clamped to [0, m−1]). Comparisons with
+    ``m`` rather than ``m − 1`` here and in :func:`axis_exit`: a CUDA thread holds no ``m − 1`` per
+    axis across its sample loop (:func:`.interp.cell_coords`)."""
     a = int(math.floor(x / block))
     if a < 0:
         return 0
-    if a > m - 1:
+    if a >= m:
         return m - 1
     return a
 
@@ -80,7 +82,7 @@ def axis_exit(p, q, a, block, m):
     those sides, and along an axis the ray does not move on, is ``inf``.
     """
     if q > 0.0:
-        if a >= m - 1:
+        if a + 1 >= m:
             return math.inf
         return ((a + 1) * block - p) / q
     if q < 0.0:

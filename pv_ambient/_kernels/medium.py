@@ -31,14 +31,16 @@ STEP_COLUMNS = 11
 
 @scalar(inline=True)
 def lut_coords(s, lut_lo, lut_inv, n):
-    """Entries (k0, k1) and fraction for scalar ``s`` in a table of ``n`` entries (clamped)."""
+    """Entries (k0, k1) and fraction for scalar ``s`` in a table of ``n`` entries (clamped; the upper
+    clamp on the integer entry, as :func:`.interp.cell_coords` and for the same reason)."""
     x = (s - lut_lo) * lut_inv
     if x <= 0.0:
         return 0, 0, 0.0
-    if x >= n - 1:
-        return n - 1, n - 1, 0.0
-    k0 = int(x)
-    return k0, k0 + 1, x - k0
+    if x < 1e9:
+        k0 = int(x)
+        if k0 + 1 < n:
+            return k0, k0 + 1, x - k0
+    return n - 1, n - 1, 0.0
 
 
 @scalar(inline=True)

@@ -49,29 +49,47 @@ def index_ray(w2i, ox, oy, oz, dx, dy, dz):
 
 
 @scalar(inline=True)
-def medium_sigma_color(mode, medium, x, y, z):
-    """(σt, colour rgb, k0, k1, f) at index-space point (x, y, z) of ``medium`` (a
-    :class:`.records.Medium`) classified in ``mode`` (``medium.mode``, or the constant of a ray-cast
-    specialisation); (k0, k1, f) locate the table entries for :func:`medium_albedo_emission` (unused
-    in GRID mode). Colour is the emission for a physical TF."""
-    field, table, lut_lo, lut_inv, aux = medium.field, medium.table, medium.lut_lo, medium.lut_inv, medium.aux
-    s = trilinear(field, x, y, z)
-    if mode == MODE_GRID:
-        return (s, trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5),
-                0, 0, 0.0)
-    k0, k1, f = lut_coords(s, lut_lo, lut_inv, table.shape[0])
-    return (lut_value(table, k0, k1, f, 0), lut_value(table, k0, k1, f, 7), lut_value(table, k0, k1, f, 8),
-            lut_value(table, k0, k1, f, 9), k0, k1, f)
-
-
-@scalar(inline=True)
 def medium_albedo_emission(mode, medium, k0, k1, f, x, y, z):
-    """(albedo rgb, emission rgb) at the point located by :func:`medium_sigma_color` (``mode`` as there)."""
+    """(albedo rgb, emission rgb) at index-space point (x, y, z) of ``medium`` (a :class:`.records.Medium`)
+    classified in ``mode`` (``medium.mode``, or the constant of a ray-cast specialisation); (k0, k1, f)
+    locate the table entries (:func:`.tracking.sigma_lookup`; unused in GRID mode)."""
     table, aux = medium.table, medium.aux
     if mode == MODE_GRID:
         return (trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
                 trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5))
     return (lut_value(table, k0, k1, f, 1), lut_value(table, k0, k1, f, 2), lut_value(table, k0, k1, f, 3),
+            lut_value(table, k0, k1, f, 4), lut_value(table, k0, k1, f, 5), lut_value(table, k0, k1, f, 6))
+
+
+@scalar(inline=True)
+def medium_sigma(mode, medium, x, y, z):
+    """(σt, s) at index-space point (x, y, z) of ``medium`` classified in ``mode`` (as
+    :func:`medium_albedo_emission`): the extinction and the interpolated scalar (σt itself in GRID mode),
+    from which :func:`medium_optics` classifies the rest. Why not the located table entries (k0, k1, f):
+    the march holds one value, not three, across a lit model's loop over the lights, and a GPU thread's
+    registers are what that loop is short of."""
+    s = trilinear(medium.field, x, y, z)
+    if mode == MODE_GRID:
+        return s, s
+    k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, medium.table.shape[0])
+    return lut_value(medium.table, k0, k1, f, 0), s
+
+
+@scalar(inline=True)
+def medium_optics(mode, medium, s, x, y, z):
+    """(colour rgb, albedo rgb, emission rgb) at the point where :func:`medium_sigma` gave the scalar
+    ``s``: the table entries located again from ``s`` (LUT mode) or ``aux`` interpolated at (x, y, z)
+    (GRID mode, where the colour is the emission) — the values of :func:`medium_albedo_emission`, and
+    the colour (table columns 7–9). What a caller leaves unused is not computed (inlined)."""
+    if mode == MODE_GRID:
+        aux = medium.aux
+        er, eg, eb = trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5)
+        return (er, eg, eb, trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
+                er, eg, eb)
+    table = medium.table
+    k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, table.shape[0])
+    return (lut_value(table, k0, k1, f, 7), lut_value(table, k0, k1, f, 8), lut_value(table, k0, k1, f, 9),
+            lut_value(table, k0, k1, f, 1), lut_value(table, k0, k1, f, 2), lut_value(table, k0, k1, f, 3),
             lut_value(table, k0, k1, f, 4), lut_value(table, k0, k1, f, 5), lut_value(table, k0, k1, f, 6))
 
 
@@ -436,22 +454,23 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                 t = te
                 tnext = te + step
                 continue
-            sig, cr, cg, cb, k0, k1, f = medium_sigma_color(mode, medium, x, y, z)
+            # σt and the scalar first; the rest of the classification where the source needs it
+            # (:func:`medium_sigma`): nothing classified is held across the ball's or the lights' lookups
+            sig, s = medium_sigma(mode, medium, x, y, z)
             if sig > 0.0:
-                sr = cr
-                sg = cg
-                sb = cb
-                if model == AMBIENT_OCCLUSION:
+                if model == EMISSION_ABSORPTION:
+                    sr, sg, sb, _, _, _, _, _, _ = medium_optics(mode, medium, s, x, y, z)
+                elif model == AMBIENT_OCCLUSION:
                     occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
-                    ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, medium, k0, k1, f, x, y, z)
+                    cr, cg, cb, ar, ag, ab, _, _, _ = medium_optics(mode, medium, s, x, y, z)
                     sr = cr + ar * occ
                     sg = cg + ag * occ
                     sb = cb + ab * occ
-                elif model != EMISSION_ABSORPTION:
+                else:
                     # the light first: the albedo and emission are not held across its loop over lights
                     lr, lg, lb = lit_source(model, baked, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz, dx, dy, dz,
                                             w2i, lights, grid, ambient, diffusion)
-                    ar, ag, ab, er, eg, eb = medium_albedo_emission(mode, medium, k0, k1, f, x, y, z)
+                    _, _, _, ar, ag, ab, er, eg, eb = medium_optics(mode, medium, s, x, y, z)
                     sr = ar * lr + (1.0 - ar) * er
                     sg = ag * lg + (1.0 - ag) * eg
                     sb = ab * lb + (1.0 - ab) * eb
