@@ -50,8 +50,8 @@ def register(volume):
 
 
 def route_show(plotter):
-    """Make ``plotter.show()`` in a notebook, with a trame backend (given or the theme's), go through
-    :func:`show`, so that ``pl.show(jupyter_backend="client")`` re-renders the volume from the
+    """Make ``plotter.show()`` in a notebook, with a trame backend (given, the theme's, or PyVista's
+    own pick when neither names one), go through :func:`show`, so that ``pl.show(jupyter_backend="client")`` re-renders the volume from the
     browser's camera as ``show(pl, jupyter_backend="client")`` does rather than turn a flat card.
     Outside a notebook (``plotter.notebook`` false: scripts, off-screen renders) and for the
     ``"static"``/``"none"`` backends ``plotter.show`` is PyVista's, unchanged. Set once per plotter,
@@ -78,8 +78,9 @@ def route_show(plotter):
             import pyvista
 
             backend = pyvista.global_theme.jupyter_backend
-        if (pl is not None and not args and getattr(pl, "notebook", False) and str(backend).lower() in TRAME_BACKENDS
-                and volumes_of(pl)):
+        # None: PyVista picks the backend when it displays (a trame one where trame is installed)
+        trame = backend is None or str(backend).lower() in TRAME_BACKENDS
+        if pl is not None and not args and getattr(pl, "notebook", False) and trame and volumes_of(pl):
             return show(pl, **kwargs)
         return type(pl).show(pl, *args, **kwargs)  # PyVista's (the class's: looked up now)
 

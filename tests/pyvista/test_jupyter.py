@@ -15,7 +15,7 @@ import pyvista as pv  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
 from pv_ambient import datasets  # noqa: E402
-from pv_ambient.pyvista.jupyter import Follow, ambient_ui, volumes_of  # noqa: E402
+from pv_ambient.pyvista.jupyter import TRAME_BACKENDS, Follow, ambient_ui, volumes_of  # noqa: E402
 
 from .helpers import plotter  # noqa: E402
 
@@ -183,7 +183,9 @@ def test_plotter_show_goes_through_show_in_a_notebook(grid, monkeypatch, noteboo
     pa.add_ambient_volume(pl, grid, interactive=True)
     asked = []
     monkeypatch.setattr(type(pl), "show", lambda self, **kw: asked.append(kw))
-    monkeypatch.setattr(pv.global_theme, "jupyter_backend", "trame")
+    if backend is None:  # the theme's backend decides (setting it would need IPython); None: PyVista's pick
+        theme = pv.global_theme.jupyter_backend
+        routed = notebook and (theme is None or str(theme).lower() in TRAME_BACKENDS)
     pl.notebook = notebook
     pl.show(**({} if backend is None else {"jupyter_backend": backend}))
     (kw,) = asked
