@@ -46,8 +46,12 @@ def scalar(fn=None, *, inline=False, force_inline=False):
     LLVM does not always inline across dispatchers, and the calls left cost a sizeable part of an
     emission–absorption frame. ``force_inline=True`` has LLVM inline it instead (``forceinline``):
     for a function returning a tuple into a vectorised lane loop, where Numba's IR inlining would
-    leave tuple copies that cost the loop its ``noalias`` (:mod:`.packet`). The returned dispatcher
-    is also registered for :func:`cuda_device`; either kind is force-inlined there."""
+    leave tuple copies that cost the loop its ``noalias`` (:mod:`.packet`), and for any function
+    with a deep call tree of its own or many call sites (the light lookups, the light sweep's node
+    functions): Numba's IR inlining re-types and re-lowers the callee's body at every call site,
+    nested inlines multiply, and a kernel's cold compile grows several-fold, where LLVM compiles the
+    callee once and inlines its optimised body (docs/performance.rst, "Compile time"). The returned
+    dispatcher is also registered for :func:`cuda_device`; either kind is force-inlined there."""
 
     def wrap(f):
         opts = dict(_COMMON, inline="always") if inline else dict(_COMMON, forceinline=True) if force_inline else _COMMON

@@ -47,7 +47,7 @@ def sample_sigma_grid(mode, field, table, lut_lo, lut_inv, lo, step, out):
                 out[i, j, k] = sigma_at(mode, field, table, lut_lo, lut_inv, x, y, lo[2] + k * step[2])
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def wlen(B, dx, dy, dz):
     """World length of the light-index vector (dx, dy, dz)."""
     wx = B[0, 0] * dx + B[0, 1] * dy + B[0, 2] * dz
@@ -56,7 +56,7 @@ def wlen(B, dx, dy, dz):
     return math.sqrt(wx * wx + wy * wy + wz * wz)
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def march_tau(sig, B, x, y, z, vx, vy, vz, tmax):
     """∫σ along x + t·v, t ∈ [0, tmax] (light index units; v need not be unit), trapezoid in
     steps of at most half a cell; σ trilinear from the light-grid σ."""
@@ -81,7 +81,7 @@ def march_tau(sig, B, x, y, z, vx, vy, vz, tmax):
     return acc * seg
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def path_length(shape, B, x, y, z, vx, vy, vz, is_point, tmax):
     """World length of x + t·v, t ∈ [0, tmax] (point light) or t ≥ 0 (directional), inside the
     light grid's box."""
@@ -96,7 +96,7 @@ def path_length(shape, B, x, y, z, vx, vy, vz, is_point, tmax):
     return (t1 - t0) * wlen(B, vx, vy, vz)
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def _bilerp_layer(a, u, v):
     """Bilinear value of the 2D array ``a`` at (u, v), clamped to [0, n−1]²."""
     n0, n1 = a.shape
@@ -112,7 +112,7 @@ def _bilerp_layer(a, u, v):
             fu * ((1 - fv) * a[i1, j0] + fv * a[i1, j1]))
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def _node(a, k, b, c, ib, ic):
     """Light-grid coordinates of lateral node (ib, ic) on layer k of a sweep along axis a."""
     x = 0.0
@@ -127,7 +127,7 @@ def _node(a, k, b, c, ib, ic):
     return float(x), float(y), float(z)
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur):
     """Node (ib, ic) of layer ``k`` of a sweep along axis ``a`` (:func:`sweep_tau`): writes its
     optical depth to ``out`` (point light: only if ``a`` is the node's dominant axis) and its

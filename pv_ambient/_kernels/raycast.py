@@ -93,7 +93,7 @@ def medium_optics(mode, medium, s, x, y, z):
             lut_value(table, k0, k1, f, 4), lut_value(table, k0, k1, f, 5), lut_value(table, k0, k1, f, 6))
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def light_at(l, lights, wx, wy, wz):
     """Unoccluded irradiance (rgb) of light ``l`` of ``lights`` (a :class:`.records.Lights`) at
     world point w and its propagation direction."""
@@ -114,7 +114,7 @@ def light_at(l, lights, wx, wy, wz):
     return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     """Σ_j E_j T_j p(θ_j) (rgb): in-scattered direct light toward the camera (−d); T_j from the
     optical depth on the light grid (a :class:`.records.LightGrid`)."""
@@ -129,7 +129,7 @@ def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     return sr, sg, sb
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     """Light ``l``'s term of :func:`direct_light`: ``E_l T_l p(θ_l)`` (rgb)."""
     llo, linv, tau = grid.lo, grid.inv_step, grid.tau
@@ -212,7 +212,7 @@ def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, w
                 bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, i, j, k, out)
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def _d_at(D, ia, it, tt, jt, st):
     n_t = D.shape[2]
     jt1 = min(jt + 1, n_t - 1)
@@ -220,7 +220,7 @@ def _d_at(D, ia, it, tt, jt, st):
             + tt * ((1.0 - st) * D[ia, it + 1, jt] + st * D[ia, it + 1, jt1]))
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def _d_albedo(D, a_nodes, it, tt, jt, st, a):
     ia, ta = albedo_coord(a_nodes, a)
     lo = _d_at(D, ia, it, tt, jt, st)
@@ -229,7 +229,7 @@ def _d_albedo(D, a_nodes, it, tt, jt, st, a):
     return (1.0 - ta) * lo + ta * _d_at(D, min(ia + 1, D.shape[0] - 1), it, tt, jt, st)
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
     """D at one (θ, τ) for three albedos (rgb): :func:`pv_ambient._kernels.preint.d_lookup` with
     the τ and θ coordinates located once (``it, tt`` from ``tau_coord``)."""
@@ -245,7 +245,7 @@ def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
     return dr, dg, db
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, tau_b, abr, abg, abb):
     """Σ_j E_j Φ_j D(θ_j, r σ̄, ā) (rgb): light scattered at least once inside the ball (docs/ambient_scattering.rst §4).
 
@@ -266,7 +266,7 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, t
     return sr, sg, sb
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb):
     """Light ``l``'s term of :func:`ambient_light`, ``E_l Φ_l D(θ_l, ·)`` (rgb), the τ coordinate of
     D located as ``(it, tt)``."""
@@ -297,7 +297,7 @@ def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, amb
     return er * fr * dr, eg * fg * dg, eb * fb * db
 
 
-@scalar(inline=True)
+@scalar(force_inline=True)
 def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     """(φ_c + 3g F_c·ω_o)⁺/(4π) per channel (rgb): in-scattered radiance of the multiply-scattered
     light from the diffusion solve (docs/diffusion.rst), ω_o = −d toward the camera. ``diff`` is
