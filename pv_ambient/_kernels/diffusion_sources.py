@@ -17,7 +17,7 @@ import numpy as np
 from ._jit import driver, prange, scalar
 from .interp import trilinear
 from .lightvol import TIE
-from .medium import hat_axis_weight, scattering_at
+from .medium import hat_axis_weight, hat_sum, scattering_at
 
 
 # -- direct irradiance averaged over control volumes (§1) ---------------------------------------
@@ -267,31 +267,14 @@ def hat_half_row(mode, field, table, lut_lo, lut_inv, aux, M, box_lo, box_hi, is
 @scalar
 def hat_node(i, j, k, is_point, lvec, M, H, q_out, w_out):
     """Node (i, j, k) of :func:`hat_source` from the three half-index planes about it in ``H``."""
-    wsum = 0.0
-    qr = 0.0
-    qg = 0.0
-    qb = 0.0
-    bw = 0.0
-    ux = 0.0
-    uy = 0.0
-    uz = 0.0
-    for a in range(3):
-        slot = (2 * i + a) % 3
-        ha = 1.0 if a == 1 else 0.5
-        for bb in range(3):
-            hb = ha * (1.0 if bb == 1 else 0.5)
-            b = 2 * j + bb
-            for cc in range(3):
-                w = hb * (1.0 if cc == 1 else 0.5)
-                c = 2 * k + cc
-                wsum += w * H[slot, b, c, 0]
-                qr += w * H[slot, b, c, 1]
-                qg += w * H[slot, b, c, 2]
-                qb += w * H[slot, b, c, 3]
-                bw += w * H[slot, b, c, 4]
-                ux += w * H[slot, b, c, 5]
-                uy += w * H[slot, b, c, 6]
-                uz += w * H[slot, b, c, 7]
+    wsum = hat_sum(H, i, j, k, 0)
+    qr = hat_sum(H, i, j, k, 1)
+    qg = hat_sum(H, i, j, k, 2)
+    qb = hat_sum(H, i, j, k, 3)
+    bw = hat_sum(H, i, j, k, 4)
+    ux = hat_sum(H, i, j, k, 5)
+    uy = hat_sum(H, i, j, k, 6)
+    uz = hat_sum(H, i, j, k, 7)
     q_out[i, j, k, 0] = qr / wsum
     q_out[i, j, k, 1] = qg / wsum
     q_out[i, j, k, 2] = qb / wsum

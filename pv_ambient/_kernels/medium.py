@@ -276,6 +276,24 @@ def hat_sub(q, i, j, k, box_lo, box_hi):
     return i + ox, j + oy, k + oz, w
 
 
+@scalar(force_inline=True)
+def hat_sum(H, i, j, k, m):
+    """Node (i, j, k)'s hat-weighted sum of column ``m`` of its 27 half-index sub-samples, read from
+    the ring of three half-index planes ``H[slot, b, c, m]`` (slot = half-index plane mod 3, b, c
+    = half-index row and column) that :func:`hat_medium` and :func:`.diffusion_sources.hat_source`
+    fill: weights 1 at the node and ½ half-way, per axis (the box weights are already in ``H``)."""
+    s = 0.0
+    for a in range(3):
+        slot = (2 * i + a) % 3
+        ha = 1.0 if a == 1 else 0.5
+        for bb in range(3):
+            hb = ha * (1.0 if bb == 1 else 0.5)
+            b = 2 * j + bb
+            for cc in range(3):
+                s += hb * (1.0 if cc == 1 else 0.5) * H[slot, b, 2 * k + cc, m]
+    return s
+
+
 @scalar
 def hat_medium_row(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, px, b, H, slot):
     """Row ``b`` of the half-index plane at ``px`` for :func:`hat_medium`: at each half-index point
@@ -320,25 +338,11 @@ def hat_medium(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, sig_out
             top = hh
         for j in prange(ny):
             for k in range(nz):
-                wsum = 0.0
-                st = 0.0
-                sr = 0.0
-                sg = 0.0
-                sb = 0.0
-                for a in range(3):
-                    slot = (2 * i + a) % 3
-                    ha = 1.0 if a == 1 else 0.5
-                    for bb in range(3):
-                        hb = ha * (1.0 if bb == 1 else 0.5)
-                        b = 2 * j + bb
-                        for cc in range(3):
-                            w = hb * (1.0 if cc == 1 else 0.5)
-                            c = 2 * k + cc
-                            wsum += w * H[slot, b, c, 0]
-                            st += w * H[slot, b, c, 1]
-                            sr += w * H[slot, b, c, 2]
-                            sg += w * H[slot, b, c, 3]
-                            sb += w * H[slot, b, c, 4]
+                wsum = hat_sum(H, i, j, k, 0)
+                st = hat_sum(H, i, j, k, 1)
+                sr = hat_sum(H, i, j, k, 2)
+                sg = hat_sum(H, i, j, k, 3)
+                sb = hat_sum(H, i, j, k, 4)
                 sig_out[i, j, k] = st / wsum
                 sigs_out[i, j, k, 0] = sr / wsum
                 sigs_out[i, j, k, 1] = sg / wsum
