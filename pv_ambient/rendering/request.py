@@ -307,15 +307,17 @@ _NOTICED = []
 
 def compile_notice(model):
     """One line on stderr, once per process, before the first render whose kernels are neither
-    compiled in this process nor in Numba's on-disk cache (compiling takes 10–40 s once)."""
+    compiled in this process nor in Numba's on-disk cache: compiling takes from about 15 s
+    (emission–absorption) to over a minute (diffusion, the ``auto`` default) once per machine
+    (docs/performance.rst, "Compile time")."""
     if _NOTICED:
         return
     _NOTICED.append(True)
     from ..backend import kernel_compiled
 
     if not kernel_compiled("path_trace" if model == "path_traced" else "raycast"):
-        print("pv_ambient: compiling the rendering kernels for this machine (first use only, about 10-40 s; "
-              "then cached)", file=sys.stderr, flush=True)
+        print("pv_ambient: compiling the rendering kernels for this machine (first use only: 15 s to a few minutes "
+              "by model; then cached)", file=sys.stderr, flush=True)
 
 
 def check_thickness(geometry, dimensions=None):
