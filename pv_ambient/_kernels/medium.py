@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ._jit import driver, prange, scalar
-from .interp import trilinear, trilinear_c
+from .interp import cell_coords, trilinear, trilinear_c
 
 MODE_LUT = 0
 MODE_GRID = 1
@@ -31,16 +31,9 @@ STEP_COLUMNS = 11
 
 @scalar(inline=True)
 def lut_coords(s, lut_lo, lut_inv, n):
-    """Entries (k0, k1) and fraction for scalar ``s`` in a table of ``n`` entries (clamped; the upper
-    clamp on the integer entry, as :func:`.interp.cell_coords` and for the same reason)."""
-    x = (s - lut_lo) * lut_inv
-    if x <= 0.0:
-        return 0, 0, 0.0
-    if x < 1e9:
-        k0 = int(x)
-        if k0 + 1 < n:
-            return k0, k0 + 1, x - k0
-    return n - 1, n - 1, 0.0
+    """Entries (k0, k1) and fraction for scalar ``s`` in a table of ``n`` entries: the table's
+    continuous index located by :func:`.interp.cell_coords` (the same clamps)."""
+    return cell_coords((s - lut_lo) * lut_inv, n)
 
 
 @scalar(inline=True)
