@@ -51,8 +51,9 @@ def register(volume):
 
 def route_show(plotter):
     """Make ``plotter.show()`` in a notebook, with a trame backend (given, the theme's, or PyVista's
-    own pick when neither names one), go through :func:`show`, so that ``pl.show(jupyter_backend="client")`` re-renders the volume from the
-    browser's camera as ``show(pl, jupyter_backend="client")`` does rather than turn a flat card.
+    own pick when neither names one), go through :func:`show`, so that
+    ``pl.show(jupyter_backend="client")`` re-renders the volume from the browser's camera as
+    ``show(pl, jupyter_backend="client")`` does rather than turn a flat card.
     Outside a notebook (``plotter.notebook`` false: scripts, off-screen renders) and for the
     ``"static"``/``"none"`` backends ``plotter.show`` is PyVista's, unchanged. Set once per plotter,
     as an attribute of the instance.

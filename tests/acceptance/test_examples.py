@@ -29,7 +29,7 @@ BRIGHT, MIN_BRIGHT_FRACTION = 40, 0.05
 MIN_STD = 10.0
 #: A guard against a hung example, not a speed target. An example that the suite reaches before the
 #: tests that compile its kernels compiles them itself (the progressive example: the path tracer's
-#: residual kernel and the diffusion sweeps, 2-4 minutes on 2 cores with a cold kernel cache).
+#: residual kernel and the diffusion sweeps, a few minutes on 2 cores with a cold kernel cache).
 TIMEOUT_S = 300
 
 
