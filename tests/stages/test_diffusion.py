@@ -11,7 +11,7 @@ import pytest
 from scipy.special import expn
 
 from pv_ambient.stages import diffusion as dm
-from pv_ambient.stages.diffusion import solve as dsolve, system as dsystem
+from pv_ambient.stages.diffusion import solve as dsolve, sources as dm_sources, system as dsystem
 from pv_ambient.inputs.grid import make_geometry
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
@@ -556,6 +556,36 @@ def test_point_light_source_conserves_power(pos, sigma, limit):
     assert np.allclose(np.linalg.norm(omega[idx]), 1.0, atol=1e-3)
 
 
+@pytest.mark.parametrize("sigma", [0.5, 5.0])
+def test_thin_control_volumes_take_one_sample(sigma):
+    """With σt given, thin control volumes far from a point light take one sample: the first-collision
+    power moves by less than the rule's bound (δ²/(12d²) on 1/d², (σt·h)²/8 on T: 0.2 % at σh = 0.1
+    on a 65³ grid whose corners lie 16–55 index units from the light); nearer, and everywhere in a
+    medium thicker than THIN_CV per cell, the sub-samples stay (bitwise the same)."""
+    n = 65
+    pos = (0.31, 0.52, 0.47)
+    geom, tau, grid, V = _homogeneous_cube(n, sigma, pos)
+    light = PointLight(pos, (1.0, 2.0, 0.5))
+    E, _ = dm.direct_irradiance(light, geom, tau, grid)
+    sig = np.full((n, n, n), sigma)
+    E1, om1 = dm.direct_irradiance(light, geom, tau, grid, sigma_t=sig)
+    idx = np.indices((n, n, n)).transpose(1, 2, 3, 0)
+    dmax = np.max(np.abs(idx - np.array(pos) * (n - 1)), axis=-1) - 0.5
+    near = dmax < dm_sources.ONE_SAMPLE_RADIUS - 1
+    assert np.array_equal(E1[near], E[near])
+    h = 1.0 / (n - 1)
+    if sigma * h > dm_sources.THIN_CV:
+        assert np.array_equal(E1, E)
+    else:
+        rel = np.abs(E1[~near] / E[~near] - 1)
+        assert rel.max() < 2e-3
+        p, p1 = (np.sum(sigma * e * V[..., None], axis=(0, 1, 2)) for e in (E, E1))
+        assert np.allclose(p1, p, rtol=5e-4)
+    assert np.all(np.linalg.norm(om1, axis=-1) <= 1 + 1e-9)
+    with pytest.raises(ValueError, match="sigma_t"):
+        dm.direct_irradiance(light, geom, tau, grid, sigma_t=sig[1:])
+
+
 def test_directional_light_source():
     sigma = 3.0
     geom, tau, grid, V = _homogeneous_cube(17, sigma, None)
@@ -566,6 +596,10 @@ def test_directional_light_source():
     exact = 2.0 * (np.exp(-sigma * lo) - np.exp(-sigma * hi)) / (sigma * (hi - lo))
     assert np.allclose(E[3, 5, :, 1], exact, rtol=2e-3)
     assert np.allclose(omega, [0, 0, 1])
+    # σt·h = 0.19 ≤ THIN_CV: one sample per volume, the midpoint of exp(−τ): sinh(σh/2)/(σh/2) − 1 = 0.15 % low
+    E1, _ = dm.direct_irradiance(DirectionalLight((0, 0, 1), 2.0), geom, tau, grid, sigma_t=np.full((17,) * 3, sigma))
+    assert np.allclose(E1[3, 5, 1:-1, 1], exact[1:-1], rtol=2e-3)
+    assert not np.allclose(E1, E, rtol=1e-5)
 
 
 # ---------------------------------------------------------------------------------------------

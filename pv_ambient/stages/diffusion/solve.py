@@ -499,7 +499,7 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
         if sweep_orders:
             first.append(hat_source(lt, geometry, tau_l, light_grid, medium if optics is None else optics, medium))
         else:
-            E, omega = direct_irradiance(lt, geometry, tau_l, light_grid)
+            E, omega = direct_irradiance(lt, geometry, tau_l, light_grid, sigma_t=medium.sigma_t)
             q0, q1 = source_in_medium(medium, g, E, omega, first_moment=False)  # Q1 None where g = 0
             del E, omega
             if Q0 is None:

@@ -22,6 +22,12 @@ FAR_SUBSAMPLES = 2
 #: Placeholder for the first-moment output the kernel does not write.
 NO_Q1_5D = np.zeros((1, 1, 1, 1, 3), np.float32)
 SUBSAMPLE_RADIUS = 8.0
+#: With the medium's σt given, a control volume at least ``ONE_SAMPLE_RADIUS`` index units from a
+#: point light (or any, for a directional light) whose σt·h is at most ``THIN_CV`` takes one
+#: sample: the midpoint rule's error there, ``δ²/(12 d²)`` on ``1/d²`` and ``(σt h)²/8`` on T,
+#: stays below 0.5 % (docs/diffusion.rst §1).
+ONE_SAMPLE_RADIUS = 16.0
+THIN_CV = 0.2
 #: Control volumes within this many index units (max-norm) of a point light use the solid-angle form.
 NEAR = 1.5
 #: Cosine bins of the solid-angle form (twice as many azimuth bins) and chord samples.
@@ -102,7 +108,7 @@ def source_in_medium(medium, g, E_d, omega, *, first_moment=True):
 
 
 def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES, far_subsamples=FAR_SUBSAMPLES,
-                      near=NEAR, near_directions=NEAR_DIRECTIONS):
+                      near=NEAR, near_directions=NEAR_DIRECTIONS, sigma_t=None):
     """Direct irradiance of ``light`` averaged over each node's control volume.
 
     The control volume of node (i, j, k) is the index box ``[i−½, i+½]³`` clipped to the medium's
@@ -115,7 +121,10 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     ``(1/V) ∫_{S²} ∫_{chord} T dt dΩ`` — exact for ``1/d²`` — with ``near_directions`` ×
     2·``near_directions`` directions and 4 samples of T per chord. So ``Σ σ E_d V`` conserves
     the light's power up to the quadrature (see the tests). Directional light: the mean of
-    ``E·T`` over ``far_subsamples``³ sub-samples.
+    ``E·T`` over ``far_subsamples``³ sub-samples. Given the medium's ``sigma_t``, control volumes
+    that are optically thin (σt·h at most ``THIN_CV`` at the node and its six neighbours) and,
+    for a point light, at least ``ONE_SAMPLE_RADIUS`` index units away take one sample, their
+    midpoint: most of a large grid, at an eighth of the lookups.
 
     Parameters
     ----------
@@ -126,6 +135,8 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
         Optical depth from the light on ``light_grid`` (``Renderer.optical_depth``).
     light_grid : LightGrid
         Its ``lo`` and ``inv_step`` map a data index to a light-grid index.
+    sigma_t : array (nx, ny, nz), optional
+        σt at the data samples (1/world unit): enables the one-sample rule for thin volumes.
 
     Returns
     -------
@@ -149,16 +160,21 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     tlo = np.asarray(light_grid.lo, np.float64)
     tinv = np.asarray(light_grid.inv_step, np.float64)
     e = np.zeros(shape)
+    use_sig = sigma_t is not None
+    sig = np.ascontiguousarray(sigma_t if use_sig else np.zeros((1, 1, 1)), np.float64)  # checked by the caller
+    if use_sig and sig.shape != shape:
+        raise ValueError(f"sigma_t must have the grid's shape {shape}, got {sig.shape}")
+    hmax = float(np.max(geometry.spacing))
     if isinstance(light, PointLight):
         omega = np.zeros(shape + (3,))
         Minv = np.ascontiguousarray(np.linalg.inv(M[:, :3]))
         pl = Minv @ (np.asarray(light.position, np.float64) - M[:, 3])
         cvvol = abs(float(np.linalg.det(M[:, :3])))
         irradiance_point(M, Minv, lo, hi, pl, tau, tlo, tinv, subsamples, far_subsamples, SUBSAMPLE_RADIUS, near,
-                         near_directions, NEAR_CHORD, cvvol, e, omega)
+                         near_directions, NEAR_CHORD, cvvol, sig, use_sig, hmax, THIN_CV, ONE_SAMPLE_RADIUS, e, omega)
         power = np.asarray(light.intensity, np.float64)
     elif isinstance(light, DirectionalLight):
-        transmittance_cv(lo, hi, tau, tlo, tinv, far_subsamples, e)
+        transmittance_cv(lo, hi, tau, tlo, tinv, far_subsamples, sig, use_sig, hmax, THIN_CV, e)
         omega = np.broadcast_to(np.asarray(light.direction, np.float64), shape + (3,)).copy()
         power = np.asarray(light.irradiance, np.float64)
     else:
