@@ -68,14 +68,16 @@ ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
 #: once per light change (``bake_lights``; docs/models.rst, "Baked in-scattering") rather than
 #: evaluated light by light at every sample, and the relative residual at which the diffusion solve
 #: stops (``diffusion_tol``; docs/diffusion.rst, "Solver tolerance": at 1e-3 an image moves by
-#: about 2e-4 of its mean, far below the model's own error). Cost and error per preset: docs/trade.rst.
+#: about 2e-4 of its mean, far below the model's own error), and whether plain diffusion may be
+#: solved on a grid twice as coarse where the medium is optically thin per coarse cell
+#: (``diffusion_coarse``; docs/diffusion.rst, "Solve resolution"). Cost and error per preset: docs/trade.rst.
 QUALITY_PRESETS = {
     "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16,
-                "bake_lights": True, "diffusion_tol": 1e-2},
+                "bake_lights": True, "diffusion_tol": 1e-2, "diffusion_coarse": True},
     "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64,
-                 "bake_lights": True, "diffusion_tol": 1e-3},
+                 "bake_lights": True, "diffusion_tol": 1e-3, "diffusion_coarse": True},
     "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256,
-                 "bake_lights": False, "diffusion_tol": 1e-4},
+                 "bake_lights": False, "diffusion_tol": 1e-4, "diffusion_coarse": False},
 }
 QUALITIES = tuple(QUALITY_PRESETS)
 DEFAULT_QUALITY = "balanced"

@@ -261,7 +261,7 @@ class SceneStages:
         return self.cache[key]
 
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
-                  sweep_orders=0, tol=None):
+                  sweep_orders=0, tol=None, coarse=False):
         """The multiply-scattered light of ``lights`` packed for the camera pass, and its solve's
         information: ``(field, info)`` — the field as
         :func:`pv_ambient.stages.diffusion.packing.pack_for_march` packs it, summed over the lights,
@@ -273,15 +273,21 @@ class SceneStages:
         checked and converted once per scene; each light's optical depth comes from
         :meth:`optical_depth` on the light grid of ``grid``'s factor; ``sweep_orders``: the first
         scattering orders by transport sweeps (docs/diffusion.rst §5); ``tol``: the relative residual
-        at which the solve stops (the quality preset's ``diffusion_tol``; None: the solver's default)."""
+        at which the solve stops (the quality preset's ``diffusion_tol``; None: the solver's default);
+        ``coarse``: plain diffusion of an isotropic phase function may be solved on a grid twice as
+        coarse, where the medium is optically thin enough (:meth:`coarse_solve`; docs/diffusion.rst,
+        "Solve resolution")."""
         from ..stages.diffusion.packing import add_packed
 
         g = float(phase.mean_cosine)
         sweep = int(sweep_orders)
         # the sweeps need the phase function itself, plain diffusion only its mean cosine
         tol = None if tol is None else float(tol)  # None: the solver's default
+        # isotropic scattering only: the radiance's flux term (g ≠ 0) has voxel-scale structure
+        # that a coarse grid loses (docs/diffusion.rst, "Solve resolution")
+        coarse = bool(coarse) and g == 0.0 and not sweep and not flux_limited and self.coarse_solve() is not None
         keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited))
-                     + ((sweep, phase.canonical()) if sweep else ()) + (tol,) for lt in lights)
+                     + ((sweep, phase.canonical()) if sweep else ()) + (tol, coarse) for lt in lights)
         if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
             return self.cache[("diffusion_sum", keys)]  # the same array: it stays on the GPU
         total, info = None, None
@@ -289,7 +295,7 @@ class SceneStages:
             if key not in self.cache:
                 x0 = None if sweep else self.warm_start(lt, lights, key)
                 self.cache[key] = self._timed(f"diffusion {lt}", lambda: self._solve(
-                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend, x0, tol))
+                    lt, grid, phase, sweep, bool(flux_limited), progress_bar, backend, x0, tol, coarse))
                 if not sweep:
                     self.cache[("diffusion_start",) + key[1:]] = self.cache[key][0]
             part, info = self.cache[key]
@@ -318,18 +324,39 @@ class SceneStages:
             return None
         return packed_phi(packed)
 
-    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None, tol=None):
-        from ..stages.diffusion import DiffusionMedium, hat_medium, solve_for_light
+    def coarse_solve(self):
+        """``(Coarsening, coarse DiffusionMedium)`` of the grid twice as coarse that plain diffusion
+        may be solved on, or None where the medium is too thick per coarse cell or the grid too small
+        (:func:`pv_ambient.stages.diffusion.coarse.thin_enough`; cached per scene)."""
+        from ..stages.diffusion.coarse import Coarsening, thin_enough
+
+        def build():
+            co = Coarsening.of(self.geometry)
+            if not co.coarser or not thin_enough(self._diffusion_medium().sigma_t, self.geometry.spacing):
+                return None
+            return co, co.medium(self._diffusion_medium())
+
+        return self.cache.get(("diffusion_coarse",), build)
+
+    def _diffusion_medium(self):
+        from ..stages.diffusion import DiffusionMedium
+
+        return self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
+            self.optics.sigma_grid(), self.optics.albedo_grid()))
+
+    def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None, tol=None, coarse=False):
+        from ..stages.diffusion import hat_medium, solve_for_light
         from ..stages.diffusion.packing import pack_for_march
 
         g = float(phase.mean_cosine)
         if sweep:  # the classified field's node means (docs/diffusion.rst §5)
             medium = self.cache.get(("diffusion_medium_hat",), lambda: hat_medium(self.optics, self.geometry))
         else:
-            medium = self.cache.get(("diffusion_medium",), lambda: DiffusionMedium.from_arrays(
-                self.optics.sigma_grid(), self.optics.albedo_grid()))
+            medium = self._diffusion_medium()
         lgrid = self.light_grid(grid.factor)
         extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
+        if coarse:
+            extra["coarse"] = self.coarse_solve()
         if tol is not None:
             extra["tol"] = tol
         sol = solve_for_light(light, phase if sweep else g, medium=medium, geometry=self.geometry,

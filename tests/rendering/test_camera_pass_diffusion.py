@@ -147,3 +147,35 @@ def test_each_quality_solves_to_its_own_tolerance(monkeypatch):
                                   light_resolution=1.0, step=0.05)
     assert tight.metadata["diffusion_solver"]["iterations"] > its["balanced"]
     assert metrics.block_relative_rmse(balanced, tight.radiance.astype(np.float64)) <= 1e-4
+
+
+def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
+    """Why: on a large grid whose medium is thin per coarse cell, the preview and balanced presets
+    solve plain diffusion of an isotropic phase function on a grid twice as coarse, with a box
+    around each point light at the data resolution (docs/diffusion.rst, "Solve resolution"). The
+    picture stays within 0.01 (4×4-block error) of the full-resolution solve, with a point light
+    inside the medium and a directional one; forward scattering and a thick medium keep the full
+    resolution."""
+    from pv_ambient import metrics
+    from pv_ambient.rendering.presets import QUALITY_PRESETS
+    from pv_ambient.inputs.lights import DirectionalLight
+    from pv_ambient.inputs.phase import HenyeyGreenstein
+
+    grid = physical_grid(n=161, sigma=3.0)  # σt·2h ≤ 0.075
+    lights = [PointLight((0.1, -0.05, 0.0), intensity=(3.0, 2.5, 2.0)), DirectionalLight((0.2, 0.3, -1.0), 0.5)]
+    opts = dict(camera=CAM, window_size=(32, 32), model="diffusion", quality="preview", step=0.03)
+    r = renderer(grid, lights)
+    coarse = r.render(**opts).radiance.astype(np.float64)
+    assert r.stages.coarse_solve()[0].shape == (81, 81, 81)
+    assert all(k[-1] is True for k in r.cache.keys("diffusion"))
+    monkeypatch.setitem(QUALITY_PRESETS["preview"], "diffusion_coarse", False)
+    r2 = renderer(grid, lights)
+    full = r2.render(**opts).radiance.astype(np.float64)
+    assert all(k[-1] is False for k in r2.cache.keys("diffusion"))
+    assert coarse.max() > 0
+    assert metrics.block_relative_rmse(coarse, full) <= 0.01
+    monkeypatch.setitem(QUALITY_PRESETS["preview"], "diffusion_coarse", True)
+    r.stages.diffusion(lights[:1], r.stages.light_grid(), HenyeyGreenstein(0.5), coarse=True)
+    assert any(k[-1] is False and k[3] == 0.5 for k in r.cache.keys("diffusion"))
+    thick = renderer(physical_grid(n=161, sigma=200.0), lights)
+    assert thick.stages.coarse_solve() is None

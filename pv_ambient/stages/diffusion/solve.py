@@ -433,7 +433,7 @@ def _proportional(a, s0, s1, a_prev, s0_prev, s1_prev):
 
 
 def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders=0,
-                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, **options):
+                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, coarse=None, **options):
     """Direct irradiance → first-collision source → diffusion for a light (or several).
 
     A sequence of lights sums their sources into one solve (the problem is linear; per-light
@@ -469,6 +469,12 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
         The transfer function's optics, classified at sub-samples for the sweeps' first-order
         source (:func:`.sources.hat_source`); ``medium`` (trilinear) when None. For the sweeps
         ``medium`` should be :func:`.sources.hat_medium`'s.
+    coarse : (Coarsening, DiffusionMedium), optional
+        Solve on a coarser grid (:mod:`.coarse`; plain diffusion only, not with ``sweep_orders``
+        or ``flux_limited``): the first-collision source is computed on the data grid and
+        restricted, the coarse medium (``Coarsening.medium``) takes the solve, φ and F come back
+        interpolated at the data samples, and a box around each point light is solved again at
+        the data resolution. ``x0`` stays on the data grid.
     **options
         Passed to :func:`solve_in_medium` (see :func:`solve_diffusion`); ``association`` and
         ``direction`` default to the geometry's.
@@ -508,6 +514,27 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
                 Q0 += q0
                 if q1 is not None:
                     Q1 += q1
+    if not sweep_orders and coarse is not None:
+        from ...inputs.lights import PointLight
+        from .coarse import solve_coarse
+
+        if opts.get("flux_limited"):
+            raise ValueError("coarse solves plain diffusion only (flux_limited=False)")
+        M = np.asarray(geometry.index_to_world, np.float64)[:3]
+        points = [np.linalg.solve(M[:, :3], np.asarray(lt.position, np.float64) - M[:, 3])
+                  for lt in lights if isinstance(lt, PointLight)]
+        co, medium_c = coarse
+        x0 = opts.pop("x0", None)
+        floor = opts.get("sigma_floor") or SIGMA_FLOOR_REL / mean_chord(medium.sigma_t.shape, sp, opts["association"])
+
+        def solve(med, spacing, q0, q1, start):  # the coarse grid's floor is the data grid's
+            return solve_in_medium(med, g, spacing, q0, q1, x0=start, **dict(opts, sigma_floor=floor))
+
+        sol = solve_coarse(solve, medium, medium_c, co, float(g), sp, Q0, Q1, points, floor=floor,
+                           tol=opts.get("tol", DEFAULT_TOL), x0=x0, association=opts["association"],
+                           direction=opts["direction"])
+        sol.time = time.perf_counter() - t_start
+        return sol
     if not sweep_orders:
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
