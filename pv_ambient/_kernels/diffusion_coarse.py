@@ -36,35 +36,55 @@ def prolong(src, c0x, fx, c0y, fy, c0z, fz, out):
 
 
 @driver
-def restrict(src, c0x, fx, lox, hix, c0y, fy, loy, hiy, c0z, fz, loz, hiz, out):
-    """``out[I, J, K, :]`` = the hat-weighted mean of ``src`` (data grid) around coarse node
-    (I, J, K): Σ P·src / Σ P with P the trilinear prolongation's weights (its transpose,
-    normalised). ``lo*[I]``, ``hi*[I]``: the data samples (inclusive) whose interval touches I."""
-    n0, n1, n2, nc = src.shape
-    m0, m1, m2, _ = out.shape
+def restrict(src, tx, wx, ty, wy, tz, wz, out):
+    """``out[I, J, K, :]`` = Σ wx[I, a]·wy[J, b]·wz[K, c]·src[tx[I, a], ty[J, b], tz[K, c], :]: the
+    hat-weighted mean of ``src`` (data grid) around coarse node (I, J, K), the per-axis weights
+    ``w*`` the trilinear prolongation's (its transpose), normalised per axis, over the data
+    samples ``t*`` (padded with weight 0). Sums in float64."""
+    m0, m1, m2, nc = out.shape
+    na, nb, nd = wx.shape[1], wy.shape[1], wz.shape[1]
     for I in prange(m0):
         for J in range(m1):
             for K in range(m2):
                 for ch in range(nc):
-                    out[I, J, K, ch] = 0.0
-                wsum = 0.0
-                for i in range(lox[I], hix[I] + 1):
-                    wi = (1.0 - fx[i]) if c0x[i] == I else (fx[i] if c0x[i] + 1 == I else 0.0)
-                    if wi == 0.0:
-                        continue
-                    for j in range(loy[J], hiy[J] + 1):
-                        wj = (1.0 - fy[j]) if c0y[j] == J else (fy[j] if c0y[j] + 1 == J else 0.0)
-                        if wj == 0.0:
+                    acc = 0.0
+                    for a in range(na):
+                        u = wx[I, a]
+                        if u == 0.0:
                             continue
-                        wij = wi * wj
-                        for k in range(loz[K], hiz[K] + 1):
-                            wk = (1.0 - fz[k]) if c0z[k] == K else (fz[k] if c0z[k] + 1 == K else 0.0)
-                            if wk == 0.0:
-                                continue
-                            wt = wij * wk
-                            wsum += wt
-                            for ch in range(nc):
-                                out[I, J, K, ch] += wt * src[i, j, k, ch]
-                if wsum > 0.0:
-                    for ch in range(nc):
-                        out[I, J, K, ch] /= wsum
+                        i = tx[I, a]
+                        for b in range(nb):
+                            v = u * wy[J, b]
+                            j = ty[J, b]
+                            for d in range(nd):
+                                acc += v * wz[K, d] * src[i, j, tz[K, d], ch]
+                    out[I, J, K, ch] = acc
+
+
+@driver
+def restrict_source(e, sig, alb, power, tx, wx, ty, wy, tz, wz, out):
+    """``out[I, J, K, ch] +=`` the hat-weighted mean (as :func:`restrict`) of the first-collision
+    source ``σt·a_ch·e·power[ch]`` of one light at the data samples (``e`` its irradiance per unit
+    power, ``alb`` (…, 1) for a grey albedo): the source restricted without forming it on the data
+    grid."""
+    m0, m1, m2, nc = out.shape
+    na, nb, nd = wx.shape[1], wy.shape[1], wz.shape[1]
+    ca = alb.shape[3]
+    for I in prange(m0):
+        for J in range(m1):
+            for K in range(m2):
+                for ch in range(nc):
+                    acc = 0.0
+                    q = min(ch, ca - 1)
+                    for a in range(na):
+                        u = wx[I, a]
+                        if u == 0.0:
+                            continue
+                        i = tx[I, a]
+                        for b in range(nb):
+                            v = u * wy[J, b]
+                            j = ty[J, b]
+                            for d in range(nd):
+                                k = tz[K, d]
+                                acc += v * wz[K, d] * e[i, j, k] * sig[i, j, k] * alb[i, j, k, q]
+                    out[I, J, K, ch] += acc * power[ch]

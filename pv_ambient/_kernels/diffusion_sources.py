@@ -162,7 +162,7 @@ def point_cv_near(Minv, pl0, pl1, pl2, tau, tlo, tinv, a0, a1, b0, b1, c0, c1, n
 
 @driver
 def irradiance_point(M, Minv, box_lo, box_hi, pl, tau, tlo, tinv, ns, ns_far, mid, near, nu, nchord, cvvol,
-                     sig, use_sig, hmax, thin, far, e_out, w_out):
+                     sig, use_sig, hmax, thin, far, want_w, e_out, w_out):
     """Control-volume mean of T/d² (``e_out``, per unit intensity) and the e-weighted mean
     propagation direction (``w_out``, world, |w| ≤ 1) of a point light at index point ``pl``.
 
@@ -170,7 +170,8 @@ def irradiance_point(M, Minv, box_lo, box_hi, pl, tau, tlo, tinv, ns, ns_far, mi
     uses the solid-angle form (:func:`point_cv_near`), d < ``mid`` ns³ midpoint sub-samples,
     farther ``ns_far``³, and a single sample (the box's midpoint) at ``far`` or farther where the
     volume is optically thin (``use_sig``: :func:`cv_thin` of ``sig`` with spacing ``hmax`` at
-    most ``thin``). ``cvvol`` is the world volume of one full (unclipped) control volume.
+    most ``thin``). ``cvvol`` is the world volume of one full (unclipped) control volume;
+    ``want_w`` False: ``w_out`` (a placeholder) is not written.
     Both thresholds are compared less ``TIE``. Why: a light on a sample (or half-way between two)
     has distances that equal them up to rounding, and the choice must not depend on the scene's
     scale (tests/test_extremes.py renders scenes scaled over many orders of magnitude).
@@ -206,6 +207,8 @@ def irradiance_point(M, Minv, box_lo, box_hi, pl, tau, tlo, tinv, ns, ns_far, mi
                         m = 1
                     e, ex, ey, ez = point_cv_far(M, lx, ly, lz, tau, tlo, tinv, a0, a1, b0, b1, c0, c1, m)
                 e_out[i, j, k] = e
+                if not want_w:
+                    continue
                 if e > 0.0:
                     w_out[i, j, k, 0] = ex / e
                     w_out[i, j, k, 1] = ey / e

@@ -84,7 +84,7 @@ def test_coarse_solve_against_the_full_resolution():
     full-resolution solve, σs-weighted relative error of φ: ≤ 0.5 % within 8 samples of the light
     (inside the box), ≤ 2 % over the whole grid (measured 0.25 % and 0.53 %); the coarse source keeps
     the data grid's power to 1 % (measured 6e-5)."""
-    from pv_ambient.stages.diffusion.sources import direct_irradiance, source_in_medium
+    from pv_ambient.stages.diffusion.sources import direct_irradiance, source_in_medium, unit_irradiance
     from types import SimpleNamespace
 
     n = 65
@@ -109,8 +109,12 @@ def test_coarse_solve_against_the_full_resolution():
     def solve(m, sp, q0, q1, x0):
         return solve_in_medium(m, 0.0, sp, q0, q1, x0=x0, tol=1e-6, sigma_floor=floor)
 
-    sol = dc.solve_coarse(solve, med, co.medium(med), co, 0.0, (h, h, h), Q0, None, [pl], floor=floor, tol=1e-6)
-    assert sol.phi.shape == full.phi.shape and sol.flux.shape == full.flux.shape
+    e, _, power = unit_irradiance(light, geo, tau, grid, sigma_t=sig, direction=False)
+    assert np.allclose(e[..., None] * power, E)
+    sol = dc.solve_coarse(solve, med, co.medium(med), co, 0.0, (h, h, h), [(e, power)], None, [pl], floor=floor,
+                          tol=1e-6)
+    assert sol.flux is None and sol.phi.dtype == np.float32
+    assert sol.phi.shape == full.phi.shape
     ss = sig[..., None] * alb
     d = np.max(np.abs(np.indices((n, n, n)).transpose(1, 2, 3, 0) - pl), axis=-1)
 
@@ -168,7 +172,8 @@ def test_coarse_solve_with_a_first_moment_source():
     def solve(m, sp, q0, q1, x0):
         return solve_in_medium(m, g, sp, q0, q1, x0=x0, tol=1e-6, sigma_floor=floor)
 
-    sol = dc.solve_coarse(solve, med, co.medium(med), co, g, (h, h, h), Q0, Q1, [pl], floor=floor, tol=1e-6)
+    sol = dc.solve_coarse(solve, med, co.medium(med), co, g, (h, h, h), [(E[..., 0], np.ones(3))], Q1, [pl],
+                          floor=floor, tol=1e-6)
     ss = sig[..., None] * alb
     err = np.sum(ss * np.abs(sol.phi - full.phi)) / np.sum(ss * full.phi)
     assert err < 2e-2

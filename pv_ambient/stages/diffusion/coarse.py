@@ -65,12 +65,13 @@ def coarse_shape(shape, association="point", factor=2.0):
 
 
 def _axis_map(n, m, association):
-    """(c0, f, lo, hi, scale, offset) of one axis: data sample i lies between coarse nodes c0[i]
-    and c0[i] + 1 at fraction f[i]; coarse node c touches data samples lo[c]..hi[c]; the data
-    index of coarse node c is ``offset + c·scale``."""
+    """(c0, f, taps, weights, scale, offset) of one axis: data sample i lies between coarse nodes
+    c0[i] and c0[i] + 1 at fraction f[i]; coarse node c restricts from data samples taps[c, :]
+    with weights[c, :] (the prolongation's transpose, normalised to sum 1; padded with weight 0);
+    the data index of coarse node c is ``offset + c·scale``."""
     if n == m:
         c0 = np.arange(n, dtype=np.int64)
-        return c0, np.zeros(n), c0.copy(), c0.copy(), 1.0, 0.0
+        return c0, np.zeros(n), c0[:, None].copy(), np.ones((n, 1)), 1.0, 0.0
     if association == "point":
         scale, offset = (n - 1) / (m - 1), 0.0
     else:
@@ -79,9 +80,24 @@ def _axis_map(n, m, association):
     u = np.clip((np.arange(n) - offset) / scale, 0.0, m - 1.0)
     c0 = np.minimum(np.floor(u).astype(np.int64), m - 2)
     f = u - c0
-    lo = np.searchsorted(c0 + 1, np.arange(m), side="left").astype(np.int64)  # first i with c0[i] + 1 ≥ c
-    hi = (np.searchsorted(c0, np.arange(m), side="right") - 1).astype(np.int64)  # last i with c0[i] ≤ c
-    return c0, f, lo, hi, float(scale), float(offset)
+    rows = np.concatenate([c0, c0 + 1])
+    cols = np.concatenate([np.arange(n), np.arange(n)])
+    vals = np.concatenate([1.0 - f, f])
+    keep = vals > 0.0
+    rows, cols, vals = rows[keep], cols[keep], vals[keep]
+    order = np.lexsort((cols, rows))
+    rows, cols, vals = rows[order], cols[order], vals[order]
+    count = np.bincount(rows, minlength=m)
+    width = int(count.max())
+    taps = np.zeros((m, width), np.int64)
+    weights = np.zeros((m, width))
+    start = np.concatenate([[0], np.cumsum(count)[:-1]])
+    slot = np.arange(rows.size) - start[rows]
+    taps[rows, slot] = cols
+    weights[rows, slot] = vals
+    taps[count == 0] = 0
+    weights /= np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
+    return c0, f, taps, weights, float(scale), float(offset)
 
 
 def _four(a):
@@ -147,9 +163,24 @@ class Coarsening:
 
         src = _four(np.asarray(arr))
         out = np.empty(self.shape + (src.shape[3],))
-        args = [x for mp in self.maps for x in mp[:4]]
+        args = [x for mp in self.maps for x in mp[2:4]]
         restrict(src, *args, out)
         return out if np.ndim(arr) == 4 else out[..., 0]
+
+    def restrict_sources(self, medium, sources) -> np.ndarray:
+        """The first-collision source ``σs·e·power`` of ``sources`` (``(e, power)`` pairs: a light's
+        irradiance per unit power at the data samples, :func:`.sources.unit_irradiance`, and its
+        power per channel), summed over them and restricted as :meth:`restrict` does, float64
+        (m0, m1, m2, C) — without forming it on the data grid."""
+        from ..._kernels.diffusion_coarse import restrict_source
+
+        alb = _four(medium.albedo)
+        C = max(len(p) for _, p in sources)
+        out = np.zeros(self.shape + (C,))
+        args = [x for mp in self.maps for x in mp[2:4]]
+        for e, power in sources:
+            restrict_source(e, medium.sigma_t, alb, np.asarray(power, np.float64), *args, out)
+        return out
 
     def prolong(self, arr, dtype=np.float64) -> np.ndarray:
         """Coarse-grid ``arr`` trilinearly interpolated at the data samples."""
@@ -274,40 +305,48 @@ def local_flux(medium, g, floor, Q1):
     return out if Q1.ndim == 5 else out[..., 0, :]
 
 
-def solve_coarse(solve, medium, coarse_medium, co, g, spacing, Q0, Q1=None, points=(), *, floor, tol,
+def _box_source(medium, sources, sl, ch):
+    """Channel ``ch`` of the first-collision source of ``sources`` on the data samples ``sl``."""
+    alb = _four(medium.albedo)
+    a = alb[..., min(ch, alb.shape[3] - 1)][sl]
+    q = np.zeros(a.shape)
+    for e, power in sources:
+        q += e[sl] * power[min(ch, len(power) - 1)]
+    return q * medium.sigma_t[sl] * a
+
+
+def solve_coarse(solve, medium, coarse_medium, co, g, spacing, sources, Q1=None, points=(), *, floor, tol,
                  x0=None, association="point", direction=None, patch_radius=None):
-    """Plain diffusion (mean cosine ``g``, a float) for sources ``Q0`` (data grid, (nx, ny, nz, C))
-    and ``Q1`` ((nx, ny, nz, C, 3) world components, or None) solved on ``co``'s coarse grid by
+    """Plain diffusion (mean cosine ``g``, a float) of the first-collision source of ``sources``
+    (``(e, power)`` pairs, :meth:`Coarsening.restrict_sources`) and the first-moment source ``Q1``
+    ((nx, ny, nz, C, 3) world components, or None) solved on ``co``'s coarse grid by
     ``solve(medium, spacing, Q0, Q1, x0)`` (the caller's :func:`.solve.solve_in_medium` with its
-    options) in ``coarse_medium``; φ and F interpolated at the data samples (F's local part
-    :func:`local_flux` at the data samples' own), and boxes of ``patch_radius`` around ``points``
-    (data index: the point lights; ``PATCH_RADIUS`` when None) solved again at the data
-    resolution. ``floor``: the vacuum floor of σt' (the data grid's). ``x0``: a warm start on the
-    data grid. Returns a :class:`.DiffusionSolution` on the data grid (``power``, ``iterations``
-    and ``residual`` are the coarse solve's)."""
+    options) in ``coarse_medium``; φ interpolated at the data samples (float32), F too where there
+    is a first moment (its local part :func:`local_flux` the data samples' own; without ``Q1`` F is
+    None: an isotropic phase function's radiance has no flux term), and boxes of ``patch_radius``
+    around ``points`` (data index: the point lights; ``PATCH_RADIUS`` when None) solved again at
+    the data resolution. ``floor``: the vacuum floor of σt' (the data grid's). ``x0``: a warm start
+    on the data grid. Returns a :class:`.DiffusionSolution` on the data grid (``power``,
+    ``iterations`` and ``residual`` are the coarse solve's)."""
     t_start = time.perf_counter()
     patch_radius = PATCH_RADIUS if patch_radius is None else patch_radius
     Hsp = np.linalg.norm(np.asarray(co.geometry.index_to_world, np.float64)[:3, :3], axis=0)
     x0c = None if x0 is None else co.restrict(x0)
-    q0 = _four(Q0)
-    C = q0.shape[3]
+    q0c = co.restrict_sources(medium, sources)
+    C = q0c.shape[3]
     q1c = None
     if Q1 is not None:
         q1 = Q1 if Q1.ndim == 5 else Q1[..., None, :]
         q1c = co.restrict(q1.reshape(q1.shape[:3] + (-1,))).reshape(co.shape + q1.shape[3:])
-        if Q1.ndim == 4:
-            q1c = q1c[..., 0, :]
-    sol = solve(coarse_medium, Hsp, co.restrict(Q0), q1c, x0c)
-    phi = co.prolong(sol.phi)
-    fl = sol.flux
+    sol = solve(coarse_medium, Hsp, q0c, q1c, x0c)
+    phi = co.prolong(sol.phi, np.float32)
+    flux = None
     if Q1 is not None:
-        fl = fl - local_flux(coarse_medium, g, floor, q1c)
-    flux = co.prolong(fl.reshape(fl.shape[:3] + (-1,)), np.float32).reshape(phi.shape[:3] + fl.shape[3:])
-    if Q1 is not None:
-        flux += local_flux(medium, g, floor, Q1)
+        fl = sol.flux - local_flux(coarse_medium, g, floor, q1c)
+        flux = co.prolong(fl.reshape(fl.shape[:3] + (-1,)), np.float32).reshape(phi.shape[:3] + fl.shape[3:])
+        flux += local_flux(medium, g, floor, q1)
     sp = np.asarray(spacing, np.float64)
     shape = tuple(medium.sigma_t.shape)
-    ph, fx = _four(phi), flux if flux.ndim == 5 else flux[..., None, :]
     alb = _four(medium.albedo)
     for p in points:
         box = _patch(shape, p, patch_radius)
@@ -317,18 +356,19 @@ def solve_coarse(solve, medium, coarse_medium, co, g, spacing, Q0, Q1=None, poin
         for ch in range(C):
             s1 = None
             if Q1 is not None:
-                s1 = (Q1[..., ch, :] if Q1.ndim == 5 else Q1)[sl]
+                s1 = q1[..., ch, :][sl]
                 if direction is not None:
                     s1 = s1 @ np.asarray(direction, np.float64)  # world → index-axis components
             out = _solve_patch(medium.sigma_t[sl], alb[..., min(ch, alb.shape[3] - 1)][sl], g, floor, sp, association,
-                               q0[..., ch][sl], s1, direction, np.ascontiguousarray(ph[..., ch][sl], np.float64),
-                               cut, tol)
+                               _box_source(medium, sources, sl, ch), s1, direction,
+                               np.ascontiguousarray(phi[..., ch][sl], np.float64), cut, tol)
             if out is None:
                 continue
             phi_p, F_p, ghost = out
-            ph[..., ch][sl] = phi_p
-            inner = ~ghost
-            fx[..., ch, :][sl][inner] = F_p[inner]
+            phi[..., ch][sl] = phi_p
+            if flux is not None:
+                inner = ~ghost
+                flux[..., ch, :][sl][inner] = F_p[inner]
     sol.phi = phi
     sol.flux = flux
     sol.time = time.perf_counter() - t_start

@@ -15,7 +15,7 @@ def pack_for_march(solution, g) -> np.ndarray:
 
     if g == 0.0:  # no flux term in the radiance (raycast.diffusion_light): φ alone, F never packed
         phi = solution.phi if solution.phi.ndim == 4 else solution.phi[..., None]
-        packed = phi.astype(np.float32)
+        packed = phi.astype(np.float32, copy=False)  # a coarse solve's interpolated φ is float32 already
     else:
         packed = solution.packed()
     n, nch = diffusion_layout(packed.shape[3])  # values per channel, channels

@@ -24,9 +24,13 @@ class DiffusionSolution:
     ----------
     phi : numpy.ndarray
         Fluence φ (W/m² for sources in W/m³), float64 (the solver's iterate: ``residual`` and
-        ``power`` hold for it, and it warm-starts the next solve), (nx, ny, nz) or (nx, ny, nz, C).
-    flux : numpy.ndarray
-        Flux F in world components, float32, (nx, ny, nz, 3) or (nx, ny, nz, C, 3).
+        ``power`` hold for it, and it warm-starts the next solve), (nx, ny, nz) or (nx, ny, nz, C);
+        float32 when interpolated from a solve on a coarser grid (docs/diffusion.rst, "Solve
+        resolution").
+    flux : numpy.ndarray or None
+        Flux F in world components, float32, (nx, ny, nz, 3) or (nx, ny, nz, C, 3); None from a
+        coarser grid's solve without a first-moment source (an isotropic phase function's radiance
+        has no flux term, so it is not interpolated).
     iterations : int
         Conjugate-gradient iterations, summed over channels and outer (flux-limiter) passes.
     residual : float

@@ -68,7 +68,7 @@ from ...inputs.validation import check_array, check_choice, check_int, check_rea
 from .medium import DiffusionMedium, check_mean_cosine
 from .ordinates import DEFAULT_DIRECTIONS, scattering_orders
 from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
-from .sources import direct_irradiance, hat_source, source_in_medium
+from .sources import direct_irradiance, hat_source, source_in_medium, unit_irradiance
 from .solution import DiffusionSolution
 from .system import NO_Q1, FVGrid, assemble, check_boundary, flux_and_power, reflects
 
@@ -499,6 +499,8 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
     t_start = time.perf_counter()
     if sweep_orders:
         kind, pg = _phase_kind(g)  # before any work: one phase function for the whole medium
+    if not sweep_orders and coarse is not None:
+        return _solve_coarse(lights, taus, g, medium, geometry, light_grid, coarse, opts, t_start)
     Q0 = Q1 = None
     first = []  # the sweeps' first order per light: (Q0, ω)
     for lt, tau_l in zip(lights, taus):
@@ -514,27 +516,6 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
                 Q0 += q0
                 if q1 is not None:
                     Q1 += q1
-    if not sweep_orders and coarse is not None:
-        from ...inputs.lights import PointLight
-        from .coarse import solve_coarse
-
-        if opts.get("flux_limited"):
-            raise ValueError("coarse solves plain diffusion only (flux_limited=False)")
-        M = np.asarray(geometry.index_to_world, np.float64)[:3]
-        points = [np.linalg.solve(M[:, :3], np.asarray(lt.position, np.float64) - M[:, 3])
-                  for lt in lights if isinstance(lt, PointLight)]
-        co, medium_c = coarse
-        x0 = opts.pop("x0", None)
-        floor = opts.get("sigma_floor") or SIGMA_FLOOR_REL / mean_chord(medium.sigma_t.shape, sp, opts["association"])
-
-        def solve(med, spacing, q0, q1, start):  # the coarse grid's floor is the data grid's
-            return solve_in_medium(med, g, spacing, q0, q1, x0=start, **dict(opts, sigma_floor=floor))
-
-        sol = solve_coarse(solve, medium, medium_c, co, float(g), sp, Q0, Q1, points, floor=floor,
-                           tol=opts.get("tol", DEFAULT_TOL), x0=x0, association=opts["association"],
-                           direction=opts["direction"])
-        sol.time = time.perf_counter() - t_start
-        return sol
     if not sweep_orders:
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
@@ -567,3 +548,39 @@ def _phase_kind(g):
     if kind in (HENYEY_GREENSTEIN, SCHLICK) and pg == 0.0:
         return ISOTROPIC, 0.0
     return kind, pg
+
+
+def _solve_coarse(lights, taus, g, medium, geometry, light_grid, coarse, opts, t_start):
+    """:func:`solve_for_light` on the coarser grid of ``coarse`` (:func:`.coarse.solve_coarse`): each
+    light's irradiance per unit power on the data grid, restricted with σs as the coarse source; the
+    first-moment source on the data grid only where g ≠ 0."""
+    from ...inputs.lights import PointLight
+    from .coarse import solve_coarse
+
+    if opts.get("flux_limited"):
+        raise ValueError("coarse solves plain diffusion only (flux_limited=False)")
+    g = float(check_mean_cosine(g, ()))
+    sp = np.asarray(geometry.spacing, np.float64)
+    M = np.asarray(geometry.index_to_world, np.float64)[:3]
+    points = [np.linalg.solve(M[:, :3], np.asarray(lt.position, np.float64) - M[:, 3])
+              for lt in lights if isinstance(lt, PointLight)]
+    sources, Q1 = [], None
+    for lt, tau_l in zip(lights, taus):
+        e, omega, power = unit_irradiance(lt, geometry, tau_l, light_grid, sigma_t=medium.sigma_t, direction=g != 0.0)
+        sources.append((e, power))
+        if g != 0.0:
+            _, q1 = source_in_medium(medium, g, e[..., None] * power, omega)
+            Q1 = q1 if Q1 is None else Q1 + q1
+    co, medium_c = coarse
+    opts = dict(opts)
+    x0 = opts.pop("x0", None)
+    floor = opts.get("sigma_floor") or SIGMA_FLOOR_REL / mean_chord(medium.sigma_t.shape, sp, opts["association"])
+
+    def solve(med, spacing, q0, q1, start):  # the coarse grid's floor is the data grid's
+        return solve_in_medium(med, g, spacing, q0, q1, x0=start, **dict(opts, sigma_floor=floor))
+
+    sol = solve_coarse(solve, medium, medium_c, co, g, sp, sources, Q1, points, floor=floor,
+                       tol=opts.get("tol", DEFAULT_TOL), x0=x0, association=opts["association"],
+                       direction=opts["direction"])
+    sol.time = time.perf_counter() - t_start
+    return sol

@@ -13,7 +13,7 @@ from ...inputs.validation import check_array, check_int, check_real
 from .medium import DiffusionMedium, check_mean_cosine
 
 __all__ = ["direct_irradiance", "first_collision_source", "hat_medium", "hat_source", "optics_arrays",
-           "source_in_medium"]
+           "source_in_medium", "unit_irradiance"]
 
 #: Sub-samples per axis of a control volume when averaging a light's irradiance: within
 #: ``SUBSAMPLE_RADIUS`` index units of a point light, and farther out (or for a directional light).
@@ -21,6 +21,8 @@ SUBSAMPLES = 4
 FAR_SUBSAMPLES = 2
 #: Placeholder for the first-moment output the kernel does not write.
 NO_Q1_5D = np.zeros((1, 1, 1, 1, 3), np.float32)
+#: Placeholder for the direction output the irradiance kernel does not write.
+NO_OMEGA = np.zeros((1, 1, 1, 3))
 SUBSAMPLE_RADIUS = 8.0
 #: With the medium's σt given, a control volume at least ``ONE_SAMPLE_RADIUS`` index units from a
 #: point light (or any, for a directional light) whose σt·h is at most ``THIN_CV`` takes one
@@ -145,6 +147,18 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     omega : numpy.ndarray
         float64 (nx, ny, nz, 3): the E-weighted mean propagation direction (world).
     """
+    e, omega, power = unit_irradiance(light, geometry, tau, light_grid, subsamples=subsamples,
+                                      far_subsamples=far_subsamples, near=near, near_directions=near_directions,
+                                      sigma_t=sigma_t)
+    return e[..., None] * power, omega
+
+
+def unit_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES, far_subsamples=FAR_SUBSAMPLES,
+                    near=NEAR, near_directions=NEAR_DIRECTIONS, sigma_t=None, direction=True):
+    """:func:`direct_irradiance` per unit power: ``(e, omega, power)`` with ``E_d = e[..., None] ·
+    power`` — e float64 (nx, ny, nz), ``power`` the light's intensity or irradiance per channel (3,),
+    ``omega`` as there, or None with ``direction=False`` (not computed: an isotropic phase function's
+    source has no first moment). Same parameters as :func:`direct_irradiance`."""
     from ..._kernels.diffusion_sources import irradiance_point, transmittance_cv
     from ...inputs.lights import DirectionalLight, PointLight
 
@@ -159,27 +173,28 @@ def direct_irradiance(light, geometry, tau, light_grid, *, subsamples=SUBSAMPLES
     hi = np.asarray(geometry.box_hi, np.float64)
     tlo = np.asarray(light_grid.lo, np.float64)
     tinv = np.asarray(light_grid.inv_step, np.float64)
-    e = np.zeros(shape)
+    e = np.empty(shape)  # every node written by the kernels
     use_sig = sigma_t is not None
     sig = np.ascontiguousarray(sigma_t if use_sig else np.zeros((1, 1, 1)), np.float64)  # checked by the caller
     if use_sig and sig.shape != shape:
         raise ValueError(f"sigma_t must have the grid's shape {shape}, got {sig.shape}")
     hmax = float(np.max(geometry.spacing))
     if isinstance(light, PointLight):
-        omega = np.zeros(shape + (3,))
+        omega = np.empty(shape + (3,)) if direction else NO_OMEGA
         Minv = np.ascontiguousarray(np.linalg.inv(M[:, :3]))
         pl = Minv @ (np.asarray(light.position, np.float64) - M[:, 3])
         cvvol = abs(float(np.linalg.det(M[:, :3])))
         irradiance_point(M, Minv, lo, hi, pl, tau, tlo, tinv, subsamples, far_subsamples, SUBSAMPLE_RADIUS, near,
-                         near_directions, NEAR_CHORD, cvvol, sig, use_sig, hmax, THIN_CV, ONE_SAMPLE_RADIUS, e, omega)
+                         near_directions, NEAR_CHORD, cvvol, sig, use_sig, hmax, THIN_CV, ONE_SAMPLE_RADIUS, bool(direction),
+                         e, omega)
         power = np.asarray(light.intensity, np.float64)
     elif isinstance(light, DirectionalLight):
         transmittance_cv(lo, hi, tau, tlo, tinv, far_subsamples, sig, use_sig, hmax, THIN_CV, e)
-        omega = np.broadcast_to(np.asarray(light.direction, np.float64), shape + (3,)).copy()
+        omega = np.broadcast_to(np.asarray(light.direction, np.float64), shape + (3,)).copy() if direction else None
         power = np.asarray(light.irradiance, np.float64)
     else:
         raise TypeError(f"light must be a PointLight or DirectionalLight, got {type(light).__name__}")
-    return e[..., None] * power, omega
+    return e, (omega if direction else None), power
 
 
 def hat_source(light, geometry, tau, light_grid, optics, medium, *, near=NEAR):
