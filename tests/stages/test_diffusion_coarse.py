@@ -178,3 +178,45 @@ def test_coarse_solve_with_a_first_moment_source():
     err = np.sum(ss * np.abs(sol.phi - full.phi)) / np.sum(ss * full.phi)
     assert err < 2e-2
     assert sol.flux.shape == full.flux.shape and np.isfinite(sol.flux).all()
+
+
+@pytest.mark.parametrize("association", ["point", "cell"])
+def test_solve_for_light_on_a_rotated_grid(association, monkeypatch):
+    """:func:`solve_for_light` with ``coarse``: a rotated grid of point or cell data, a point light
+    inside (its box 12 samples wide, so that it is cut on every side) and a directional light,
+    against the same call at full resolution (σs-weighted φ within 1.5 %; measured 0.7–1.2 %). A box
+    that covers the whole grid solves it in full."""
+    from types import SimpleNamespace
+    from pv_ambient.inputs.lights import DirectionalLight
+    from pv_ambient.stages.diffusion import solve_for_light
+
+    n = 66
+    sig, alb, h = _cloud(n - 1 if association == "cell" else n)
+    c, s = np.cos(0.4), np.sin(0.4)
+    M = np.eye(4)
+    M[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) * h
+    M[:3, 3] = (0.2, -0.1, 0.3)
+    geo = make_geometry((n, n, n), M, association=association)
+    assert geo.shape == sig.shape
+    med = DiffusionMedium.from_arrays(sig, alb)
+    grid = SimpleNamespace(lo=np.asarray(geo.box_lo, np.float64), inv_step=np.ones(3))
+    idx = np.indices(sig.shape).transpose(1, 2, 3, 0)
+    centre = np.array(sig.shape, np.float64) / 2 - 0.3
+    lights = [PointLight(tuple(geo.index_to_world[:3, :3] @ centre + geo.index_to_world[:3, 3]), 1.0),
+              DirectionalLight((0.3, -0.2, -1.0), 0.5)]
+    taus = [0.5 * np.linalg.norm(idx - centre, axis=-1) * h, 0.5 * (idx[..., 2].max() - idx[..., 2]) * h]
+    co = dc.Coarsening.of(geo)
+    ss = sig[..., None] * alb
+    monkeypatch.setattr(dc, "PATCH_RADIUS", 12)
+    for lt, tau in zip(lights, taus):
+        kw = dict(medium=med, geometry=geo, tau=tau, light_grid=grid, tol=1e-6)
+        full = solve_for_light(lt, 0.0, **kw)
+        crs = solve_for_light(lt, 0.0, coarse=(co, co.medium(med)), **kw)
+        err = np.sum(ss * np.abs(crs.phi - full.phi)) / np.sum(ss * full.phi)
+        assert err < 1.5e-2, (association, lt, err)
+        assert crs.phi.dtype == np.float32 and crs.flux is None
+    monkeypatch.setattr(dc, "PATCH_RADIUS", 40)  # the box is the grid: the full-resolution answer
+    kw = dict(medium=med, geometry=geo, tau=taus[0], light_grid=grid, tol=1e-6)
+    full = solve_for_light(lights[0], 0.0, **kw)
+    crs = solve_for_light(lights[0], 0.0, coarse=(co, co.medium(med)), **kw)
+    assert np.allclose(crs.phi, full.phi, rtol=1e-4, atol=1e-6 * full.phi.max())

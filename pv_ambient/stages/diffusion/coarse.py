@@ -240,7 +240,7 @@ def _solve_patch(sig, a, g0, sigma_floor, spacing, association, Q0, Q1, R, phi_b
     """One channel on a box of data samples whose cut sides' outer layer holds ``phi_bc``
     (Dirichlet); the other sides are the medium's own faces (Marshak). ``Q1``: index-axis
     components or None; ``R`` the index axes in world (None: identity). Returns (φ, F world
-    components, the held layer) on the box, or None when no side is cut (the box is the grid)."""
+    components, the held layer) on the box."""
     from ..._kernels.diffusion_system import medium_coefficients
     from .multigrid import SERIAL_NODES, hierarchy, one_thread_if, pcg
     from .system import FVGrid, assemble, flux_and_power
@@ -253,9 +253,7 @@ def _solve_patch(sig, a, g0, sigma_floor, spacing, association, Q0, Q1, R, phi_b
                 idx = [slice(None)] * 3
                 idx[ax] = 0 if side == 0 else -1
                 ghost[tuple(idx)] = True
-    if not ghost.any():
-        return None
-    sig = np.ascontiguousarray(sig, np.float64)
+    sig = np.ascontiguousarray(sig, np.float64)  # no side cut: the box is the grid, solved in full
     a = np.ascontiguousarray(a)
     D = np.empty(shape)
     part = np.zeros(shape[0])
@@ -362,8 +360,6 @@ def solve_coarse(solve, medium, coarse_medium, co, g, spacing, sources, Q1=None,
             out = _solve_patch(medium.sigma_t[sl], alb[..., min(ch, alb.shape[3] - 1)][sl], g, floor, sp, association,
                                _box_source(medium, sources, sl, ch), s1, direction,
                                np.ascontiguousarray(phi[..., ch][sl], np.float64), cut, tol)
-            if out is None:
-                continue
             phi_p, F_p, ghost = out
             phi[..., ch][sl] = phi_p
             if flux is not None:
