@@ -62,11 +62,11 @@ def restrict(src, tx, wx, ty, wy, tz, wz, out):
 
 
 @driver
-def restrict_source(e, sig, alb, power, tx, wx, ty, wy, tz, wz, out):
+def restrict_source(e, use_e, sig, alb, power, tx, wx, ty, wy, tz, wz, out):
     """``out[I, J, K, ch] +=`` the hat-weighted mean (as :func:`restrict`) of the first-collision
     source ``σt·a_ch·e·power[ch]`` of one light at the data samples (``e`` its irradiance per unit
-    power, ``alb`` (…, 1) for a grey albedo): the source restricted without forming it on the data
-    grid."""
+    power, 1 without ``use_e``: then σs itself; ``alb`` (…, 1) for a grey albedo): restricted
+    without forming the product on the data grid."""
     m0, m1, m2, nc = out.shape
     na, nb, nd = wx.shape[1], wy.shape[1], wz.shape[1]
     ca = alb.shape[3]
@@ -86,5 +86,6 @@ def restrict_source(e, sig, alb, power, tx, wx, ty, wy, tz, wz, out):
                             j = ty[J, b]
                             for d in range(nd):
                                 k = tz[K, d]
-                                acc += v * wz[K, d] * e[i, j, k] * sig[i, j, k] * alb[i, j, k, q]
+                                ee = e[i, j, k] if use_e else 1.0
+                                acc += v * wz[K, d] * ee * sig[i, j, k] * alb[i, j, k, q]
                     out[I, J, K, ch] += acc * power[ch]

@@ -220,3 +220,21 @@ def test_solve_for_light_on_a_rotated_grid(association, monkeypatch):
     full = solve_for_light(lights[0], 0.0, **kw)
     crs = solve_for_light(lights[0], 0.0, coarse=(co, co.medium(med)), **kw)
     assert np.allclose(crs.phi, full.phi, rtol=1e-4, atol=1e-6 * full.phi.max())
+
+
+def test_coarse_medium_keeps_scattering():
+    """The coarse medium's σs = a·σt is the restriction of the data grid's (the albedo is the σt-weighted
+    mean), its albedo 0 where σt is 0."""
+    from pv_ambient.inputs.grid import GridGeometry
+
+    rng = np.random.default_rng(2)
+    sig = rng.random((9, 9, 9))
+    sig[:3] = 0.0
+    alb = rng.random((9, 9, 9, 3)).astype(np.float32)
+    geo = GridGeometry((9, 9, 9), np.diag([0.25, 0.25, 0.25, 1.0]), np.zeros(3), np.full(3, 8.0))
+    co = dc.Coarsening.of(geo)
+    mc = co.medium(DiffusionMedium.from_arrays(sig, alb))
+    want = co.restrict(sig[..., None] * alb)
+    assert np.allclose(mc.albedo * mc.sigma_t[..., None], want, rtol=1e-6, atol=1e-12)
+    assert np.all(mc.albedo[mc.sigma_t == 0] == 0) and np.any(mc.sigma_t == 0)
+    assert mc.albedo.dtype == np.float32

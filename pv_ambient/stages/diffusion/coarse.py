@@ -179,7 +179,7 @@ class Coarsening:
         out = np.zeros(self.shape + (C,))
         args = [x for mp in self.maps for x in mp[2:4]]
         for e, power in sources:
-            restrict_source(e, medium.sigma_t, alb, np.asarray(power, np.float64), *args, out)
+            restrict_source(e, True, medium.sigma_t, alb, np.asarray(power, np.float64), *args, out)
         return out
 
     def prolong(self, arr, dtype=np.float64) -> np.ndarray:
@@ -194,15 +194,19 @@ class Coarsening:
 
     def medium(self, medium) -> DiffusionMedium:
         """``medium`` (a :class:`.DiffusionMedium` on the data grid) on the coarse nodes: σt and
-        σs = a·σt restricted, the albedo their ratio (the restricted albedo where σt is 0)."""
+        σs = a·σt restricted, the albedo their ratio (0 where σt is 0: nothing scatters or absorbs
+        there whatever the albedo)."""
+        from ..._kernels.diffusion_coarse import restrict_source
+
         sig = medium.sigma_t
         alb = medium.albedo
         a = _four(alb)
         sig_c = self.restrict(sig)
-        sig_s = self.restrict(a * sig[..., None])
-        a_mean = self.restrict(a)
+        sig_s = np.zeros(self.shape + (a.shape[3],))
+        args = [x for mp in self.maps for x in mp[2:4]]
+        restrict_source(sig, False, sig, a, np.ones(a.shape[3]), *args, sig_s)
         pos = sig_c[..., None] > 0.0
-        alb_c = np.clip(np.where(pos, sig_s / np.where(pos, sig_c[..., None], 1.0), a_mean), 0.0, 1.0)
+        alb_c = np.clip(np.where(pos, sig_s / np.where(pos, sig_c[..., None], 1.0), 0.0), 0.0, 1.0)
         if alb.ndim == 3:
             alb_c = alb_c[..., 0]
         return DiffusionMedium(np.ascontiguousarray(sig_c), np.ascontiguousarray(alb_c.astype(alb.dtype)))
