@@ -174,8 +174,10 @@ def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
     assert all(k[-1] is False for k in r2.cache.keys("diffusion"))
     assert coarse.max() > 0
     assert metrics.block_relative_rmse(coarse, full) <= 0.01
-    monkeypatch.setitem(QUALITY_PRESETS["preview"], "diffusion_coarse", True)
+    asked = []  # forward scattering: the stage decides for the full resolution (no solve run here)
+    monkeypatch.setattr(r.stages, "_solve", lambda *a: asked.append(a[-1]) or (np.zeros((1, 1, 1, 1), np.float32), None))
     r.stages.diffusion(lights[:1], r.stages.light_grid(), HenyeyGreenstein(0.5), coarse=True)
+    assert asked == [False]
     assert any(k[-1] is False and k[3] == 0.5 for k in r.cache.keys("diffusion"))
     thick = renderer(physical_grid(n=161, sigma=200.0), lights)
     assert thick.stages.coarse_solve() is None

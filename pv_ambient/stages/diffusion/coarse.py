@@ -38,9 +38,9 @@ __all__ = ["COARSE_MIN_NODES", "COARSE_SIGMA_H", "PATCH_RADIUS", "Coarsening", "
 COARSE_SIGMA_H = 0.5
 #: Half-width, in data index units, of the box around a point light solved at the data resolution.
 PATCH_RADIUS = 32
-#: Grids of fewer data samples are solved at the data resolution: their solve takes well under a
-#: second already (a 128³ grid's 0.6 s would save 0.2 s at a picture error of 0.007), and the box
-#: around a point light would cover much of them.
+#: Grids of fewer data samples are solved at the data resolution: their solve is fast already, so
+#: the coarse grid would save little time for its error, and the box around a point light would
+#: cover much of them (docs/diffusion.rst, "Solve resolution").
 COARSE_MIN_NODES = 160 ** 3
 
 
