@@ -160,6 +160,7 @@ def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
     from pv_ambient.rendering.presets import QUALITY_PRESETS
     from pv_ambient.inputs.lights import DirectionalLight
     from pv_ambient.inputs.phase import HenyeyGreenstein
+    from pv_ambient.stages.diffusion import coarse as dcoarse
 
     grid = physical_grid(n=161, sigma=3.0)  # σt·2h ≤ 0.075
     lights = [PointLight((0.1, -0.05, 0.0), intensity=(3.0, 2.5, 2.0)), DirectionalLight((0.2, 0.3, -1.0), 0.5)]
@@ -179,5 +180,6 @@ def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
     r.stages.diffusion(lights[:1], r.stages.light_grid(), HenyeyGreenstein(0.5), coarse=True)
     assert asked == [False]
     assert any(k[-1] is False and k[3] == 0.5 for k in r.cache.keys("diffusion"))
-    thick = renderer(physical_grid(n=161, sigma=200.0), lights)
+    monkeypatch.setattr(dcoarse, "COARSE_SIGMA_H", 0.01)  # as if the medium were thick per coarse cell
+    thick = renderer(grid, lights)
     assert thick.stages.coarse_solve() is None
