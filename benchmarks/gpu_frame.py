@@ -7,8 +7,9 @@ as ``pv_ambient.backend.raycast`` with clocks between them). Medians, in ms:
 
 * ``render()``: the whole call, as a user times it;
 * ``args``: the device cache's records for the launch (``DeviceCache.args``, the output buffer);
-* ``dispatch``: the kernel call's return on the host (Numba's typing of the arguments, their
-  marshalling, ``cuLaunchKernel``); the GPU starts meanwhile;
+* ``dispatch``: the kernel call's return on the host (:func:`pv_ambient.cuda_launch.launch`: the
+  changed records' typing and marshalling, ``cuLaunchKernel``; ``--numba-launch``: numba-cuda's own
+  launch, every argument typed and marshalled); the GPU starts meanwhile;
 * ``wait``: the host waiting for the kernel after the dispatch;
 * ``download``: the image's one copy to the host (pageable memory, as the renderer does);
   ``pinned``: the same copy into page-locked memory, for comparison;
@@ -53,6 +54,7 @@ def timed_raycast(clock):
     from numba import cuda
 
     from pv_ambient._kernels.cuda import BLOCK, grid_for, raycast_kernel_for
+    from pv_ambient.cuda_launch import launch
     from pv_ambient.device_cache import host_flat
 
     def raycast(cache, args, row0, row1, rad, alpha):
@@ -62,8 +64,7 @@ def timed_raycast(clock):
         dev_args = cache.args(args[1:], extra_bytes=cache.output_bytes(h, w))
         flat, d_rad, d_alpha = cache.output(h, w)
         t1 = time.perf_counter()
-        launch = kernel[grid_for(w, row1 - row0), BLOCK]
-        launch(*dev_args, d_rad, d_alpha, row0, row1)
+        launch(kernel, grid_for(w, row1 - row0), BLOCK, (*dev_args, d_rad, d_alpha, row0, row1), cache.launch_memo)
         t2 = time.perf_counter()
         cuda.synchronize()
         t3 = time.perf_counter()
@@ -79,7 +80,7 @@ def timed_raycast(clock):
         for key, dt in (("args", t1 - t0), ("dispatch", t2 - t1), ("wait", t3 - t2), ("download", t4 - t3),
                         ("pinned", t5 - t4)):
             clock.setdefault(key, []).append(dt)
-        clock["last"] = (kernel, launch, (*dev_args, d_rad, d_alpha, row0, row1))
+        clock["last"] = (kernel, kernel[grid_for(w, row1 - row0), BLOCK], (*dev_args, d_rad, d_alpha, row0, row1))
 
     return raycast
 
@@ -145,7 +146,27 @@ def measure(scene, size, model, frames, blocks=()):
     out["kernel"] = kernel_time(clock, frames)
     out["blocks"] = {b: kernel_time(clock, frames, b) for b in blocks}
     out["regs"], out["local"] = kernel_resources(clock["last"][0])
+    out["launch check"] = launch_check(r, cams[1], size, model)
     return out
+
+
+def launch_check(r, cam, size, model):
+    """The largest absolute difference between a frame launched by :func:`pv_ambient.cuda_launch.launch`
+    and the same frame launched by numba-cuda's own path (0 when the two pass the same parameters);
+    None when the fast path is off."""
+    import numpy as np
+
+    import pv_ambient.cuda_launch as cl
+
+    if not cl.ENABLED:
+        return None
+    fast = r.render(camera=cam, window_size=size, model=model, progress_bar=False).radiance.copy()
+    cl.ENABLED = False
+    try:
+        slow = r.render(camera=cam, window_size=size, model=model, progress_bar=False).radiance
+    finally:
+        cl.ENABLED = True
+    return float(np.max(np.abs(fast.astype(np.float64) - slow)))
 
 
 def main(argv=None):
@@ -155,7 +176,13 @@ def main(argv=None):
     p.add_argument("--frames", type=int, default=7, help="camera moves timed per model (default: %(default)s)")
     p.add_argument("--blocks", nargs="*", default=[], metavar="XxY",
                    help="also time the kernel alone in thread blocks of these shapes (e.g. 8x8 32x4)")
+    p.add_argument("--numba-launch", action="store_true",
+                   help="launch through numba-cuda's own path (PV_AMBIENT_FAST_LAUNCH=0), for comparison")
     args = p.parse_args(argv)
+    if args.numba_launch:
+        import pv_ambient.cuda_launch
+
+        pv_ambient.cuda_launch.ENABLED = False
     blocks = [tuple(int(v) for v in b.split("x")) for b in args.blocks]
     n, w = (int(x) for x in args.case.split(":"))
 
@@ -166,12 +193,14 @@ def main(argv=None):
     print(f"# GPU: {device_name()}; {n}³/{w}², medians of {args.frames} camera moves (ms)", flush=True)
     print(f"{'model':20s} " + " ".join(f"{c:>9s}" for c in COLUMNS) + f" {'regs':>5s} {'local':>6s}", flush=True)
     scene = scenes.scene("supernova_table", n)
+    from pv_ambient.cuda_launch import COUNTS
+
     for model in args.models:
         m = measure(scene, (w, w), model, args.frames, blocks)
         print(f"{model:20s} " + " ".join(f"{1e3 * m[c]:9.3f}" for c in COLUMNS)
               + f" {m['regs'] if m['regs'] is not None else '-':>5} {m['local'] if m['local'] is not None else '-':>6}"
-              + "".join(f"  kernel in {b[0]}x{b[1]} blocks {1e3 * t:.3f}" for b, t in m["blocks"].items()),
-              flush=True)
+              + "".join(f"  kernel in {b[0]}x{b[1]} blocks {1e3 * t:.3f}" for b, t in m["blocks"].items())
+              + f"  launches so far {COUNTS}, fast vs numba-cuda launch max |diff| {m['launch check']}", flush=True)
     return 0
 
 

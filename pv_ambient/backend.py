@@ -298,13 +298,14 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     :func:`image_buffers` comes home in one copy, other buffers in one copy each
     (docs/performance.rst, "Host work of a frame")."""
     from ._kernels.cuda import BLOCK, grid_for, raycast_kernel_for
+    from .cuda_launch import launch
 
     h, w = alpha.shape
     kernel = raycast_kernel_for(args[0], args[5].baked, args[3].mode)  # the model's own (its id compiled in)
     dev_args = cache.args(args[1:], extra_bytes=cache.output_bytes(h, w))
     flat, d_rad, d_alpha = cache.output(h, w)
     with _launch():
-        kernel[grid_for(w, row1 - row0), BLOCK](*dev_args, d_rad, d_alpha, row0, row1)
+        launch(kernel, grid_for(w, row1 - row0), BLOCK, (*dev_args, d_rad, d_alpha, row0, row1), cache.launch_memo)
     host = host_flat(rad, alpha) if (row0, row1) == (0, h) else None
     if host is not None:
         flat.copy_to_host(host)

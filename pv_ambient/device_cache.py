@@ -77,6 +77,7 @@ class DeviceCache:
         self._small = {}  # small_key -> device copy (insertion order: the oldest first)
         self._records = {}  # record key -> [host record, device record, last launch, ids of its large arrays]
         self._outputs = {}  # (h, w) -> (flat buffer, radiance view, alpha view)
+        self.launch_memo = {}  # id(device record or array) -> (it, Numba type, launch parameters): cuda_launch
         self._launch = 0
         self.keep = keep
 
@@ -162,6 +163,7 @@ class DeviceCache:
 
             while len(self._outputs) >= 2:
                 del self._outputs[next(iter(self._outputs))]
+            self._prune_memo()
             flat = cuda.device_array(h * w * 4, np.float32)
             n = h * w * 3
             out = self._outputs[(h, w)] = (flat, _device_view(flat, 0, (h, w, 3)), _device_view(flat, n, (h, w)))
@@ -191,17 +193,29 @@ class DeviceCache:
         for k in gone:
             del self._items[k]
         self._forget_records(gone)
+        self._prune_memo()
+
+    def _prune_memo(self):
+        """Keep the launch memo (:mod:`pv_ambient.cuda_launch`) to what the cache still holds, so
+        that it keeps no dropped device copy alive."""
+        if self.launch_memo:
+            live = ({id(r[1]) for r in self._records.values()} | {id(d) for d in self._small.values()}
+                    | {id(d) for _h, d, _t in self._items.values()} | {id(v) for o in self._outputs.values() for v in o})
+            for k in [k for k in self.launch_memo if k not in live]:
+                del self.launch_memo[k]
 
     def _forget_records(self, ids):
         if ids:
             for key in [k for k, r in self._records.items() if r[3] & ids]:
                 del self._records[key]
+            self._prune_memo()
 
     def clear(self):
         self._items.clear()
         self._small.clear()
         self._records.clear()
         self._outputs.clear()
+        self.launch_memo.clear()
 
 
 def _record_key(rec):
