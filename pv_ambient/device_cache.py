@@ -117,8 +117,8 @@ class DeviceCache:
     def put(self, arr, dev):
         """Register ``dev`` as the device copy of host array ``arr`` (computed on the GPU); the
         records that held another copy of it are mapped again at their next use."""
-        self._forget_records({id(arr)})
         self._items[id(arr)] = (arr, dev, self._launch)
+        self._forget_records({id(arr)})  # after the new copy is in: the memo then drops the old one
 
     def args(self, args, extra_bytes=0):
         """``args`` (records and values) with every numpy array, at any depth of its records,
