@@ -26,7 +26,7 @@ For each scene, at 64×64 pixels and 64³ data points:
   ``diffusion`` plain, flux-limited and with 4, 6, 8 and 12 transport sweeps + flux limiting
   (``AUTO_SWEEP_ORDERS`` of them, marked ``*``: ``auto``'s choice at ``quality="accurate"`` and the
   ``progressive`` model's default base — the count with the lowest worst block error over the six
-  old scenes), and ``model="auto"`` (the model it chose in brackets).
+  old scenes), and ``model="auto"`` at each quality preset (what it chose in brackets).
 
 Columns of a scene's table:
 
@@ -93,8 +93,18 @@ MODELS = (
     ("diffusion FL", "diffusion", {"flux_limited": True}),
     *((f"diffusion {k} sweeps+FL" + ("*" if k == AUTO_SWEEP_ORDERS else ""), "diffusion",
        {"flux_limited": True, "sweep_orders": k}) for k in SWEEP_COUNTS),
+    ("auto preview", "auto", {"quality": "preview"}),
     ("auto", "auto", {}),
+    ("auto accurate", "auto", {"quality": "accurate"}),
 )
+
+
+def chosen(meta):
+    """What ``auto`` rendered, from its metadata: the model, and diffusion's sweeps and flux limiting."""
+    if meta["model"] != "diffusion":
+        return meta["model"]
+    k, fl = meta.get("sweep_orders", 0), meta.get("flux_limited", False)
+    return "diffusion" + (f" {k} sweeps" if k else "") + ("+FL" if fl else "")
 
 
 def exposure(ref, mask):
@@ -173,7 +183,7 @@ def main(argv=None):
     shown = " ".join(sys.argv[1:] if argv is None else argv)
     log = refs.Log(out, f"python benchmarks/noise_free.py {shown}".rstrip())
     log(f"pv_ambient at {refs.commit()}; {size[0]}×{size[1]} pixels, {args.n}³ data points; reference "
-        f"{args.ref_spp} spp or {REF_ERROR:.0%} relative error (seed {REF_SEED}); models at quality 'balanced'")
+        f"{args.ref_spp} spp or {REF_ERROR:.0%} relative error (seed {REF_SEED}); models at quality 'balanced' unless labelled")
     warm_up(names[0])
     rows = []
     for name in names:
@@ -198,7 +208,7 @@ def main(argv=None):
             bias = metrics.relative_bias(img, ref, mask) if finite else float("nan")
             if model == "single_scattering":
                 t_ss = move
-            shown_label = f"auto (→{res.metadata['model']})" if model == "auto" else label
+            shown_label = f"{label} (→{chosen(res.metadata)})" if model == "auto" else label
             rows.append(dict(scene=name, group=scene_registry.group_of(name), model=label, block=block, bias=bias,
                              first=first, move=move, ratio=move / t_ss))
             log(f"  {shown_label:26s} {block:>7.3f} {bias:>+7.3f} {first:>8.2f} {move * 1e3:>8.1f} {move / t_ss:>8.2f}"

@@ -120,6 +120,15 @@ AUTO_SWEEP_ORDERS = 8
 #: quality "accurate" and the ``progressive`` model's default base except at "preview"; options the
 #: caller gives take precedence.
 ACCURATE_DIFFUSION = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}
+#: ``auto`` at quality "balanced": diffusion with its first ``BALANCED_SWEEP_ORDERS`` scattering
+#: orders by transport sweeps and flux limiting where the volume has at most
+#: ``BALANCED_SWEEP_SAMPLES`` samples, plain diffusion above. The balanced budget for a first
+#: frame's stages is what plain diffusion's cost on a 256³ volume; the sweeps' cost grows with the
+#: samples, and below this count four orders fit in it, lowering the error several-fold on the
+#: scenes the project measures (docs/trade.rst, "What auto renders").
+BALANCED_SWEEP_ORDERS = 4
+BALANCED_SWEEP_SAMPLES = 96 ** 3
+BALANCED_DIFFUSION = {"flux_limited": True, "sweep_orders": BALANCED_SWEEP_ORDERS}
 #: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
 BUDGET_MAX_SPP = 4096
 

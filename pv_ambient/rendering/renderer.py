@@ -26,8 +26,8 @@ from ..inputs.transfer import as_transfer_function
 from ..inputs.validation import check_choice, check_window_size
 from .camera_pass import render_camera_pass
 from .path_traced import path_trace, render_path_traced
-from .presets import ACCURATE_DIFFUSION, BUDGET_MAX_SPP, DEFAULT_PROPAGATION, DEFAULT_SPP, ERT, MAJORANT_BLOCK, \
-    MODEL_SPECS, step_for
+from .presets import ACCURATE_DIFFUSION, BALANCED_DIFFUSION, BALANCED_SWEEP_SAMPLES, BUDGET_MAX_SPP, \
+    DEFAULT_PROPAGATION, DEFAULT_SPP, ERT, MAJORANT_BLOCK, MODEL_SPECS, step_for
 from .progressive import render_progressive
 from ..stages.reference import RR_DEPTH
 from .request import (RenderRequest, build_request, check_image_memory, check_thickness, compile_notice, stage_bar,
@@ -173,6 +173,9 @@ class Renderer:
             return "path_traced", extra
         if model == "diffusion" and request.quality == "accurate":
             return model, {k: request.options.get(k, v) for k, v in ACCURATE_DIFFUSION.items()}
+        if (model == "diffusion" and request.quality == "balanced"
+                and int(np.prod(self.geometry.shape)) <= BALANCED_SWEEP_SAMPLES):
+            return model, {k: request.options.get(k, v) for k, v in BALANCED_DIFFUSION.items()}
         return model, {}
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
@@ -229,8 +232,12 @@ class Renderer:
             3. no light left: ``single_scattering`` (emission and absorption only);
             4. otherwise ``diffusion``, with ``quality="accurate"`` its first
                ``AUTO_SWEEP_ORDERS`` (8) scattering orders by transport sweeps and flux-limited
-               diffusion for the rest, and with ``quality="preview"`` ``ambient_scattering`` (an
-               isotropic phase function uses a 1D table slice: D does not depend on θ).
+               diffusion for the rest, with ``quality="balanced"`` its first
+               ``BALANCED_SWEEP_ORDERS`` (4) so on volumes of at most ``BALANCED_SWEEP_SAMPLES``
+               (96³) samples, where they fit in the first-frame budget plain diffusion has on a
+               256³ volume (docs/trade.rst, "What auto renders"), and with ``quality="preview"``
+               ``ambient_scattering`` (an isotropic phase function uses a 1D table slice: D does
+               not depend on θ).
                Diffusion has the lower error at a similar camera-move cost, ambient
                scattering's "preview" the cheapest first frame that carries multiply scattered
                light, the sweeps the lowest error of the noise-free models (block error ≤ 0.14

@@ -6,7 +6,8 @@ import pytest
 import pv_ambient as pa
 from pv_ambient import datasets
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
-from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS
+from pv_ambient.rendering import renderer as renderer_module
+from pv_ambient.rendering.presets import AUTO_SWEEP_ORDERS, BALANCED_DIFFUSION, BALANCED_SWEEP_ORDERS
 
 from ..helpers import CAM, SIZE, physical_grid, renderer
 
@@ -23,7 +24,7 @@ def test_render_docstrings_list_every_model_and_option():
         assert "DESIGN" not in doc
 
 
-def test_auto_rules():
+def test_auto_rules(monkeypatch):
     # albedo 0 everywhere: no scattering, no light volume is built
     r = renderer(physical_grid(albedo=0.0, emission=(0.2, 0.2, 0.2)))
     res = r.render(camera=CAM, window_size=SIZE, model="auto")
@@ -63,8 +64,14 @@ def test_auto_rules():
     assert res.metadata["model"] == "diffusion"
     assert res.metadata["flux_limited"] is True and res.metadata["sweep_orders"] == AUTO_SWEEP_ORDERS
     assert any(k[0] == "diffusion" and k[4] is True and k[5] == AUTO_SWEEP_ORDERS for k in r.cache)
-    # the default ("balanced"): plain diffusion, lower error than ambient scattering on every
-    # trade scene at a similar camera-move cost
+    # the default ("balanced"): on a volume of at most BALANCED_SWEEP_SAMPLES samples the first
+    # BALANCED_SWEEP_ORDERS orders by sweeps and flux limiting (they fit in the budget there)...
+    res = r.render(camera=CAM, window_size=SIZE, model="auto")
+    assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is True
+    assert res.metadata["sweep_orders"] == BALANCED_SWEEP_ORDERS == 4
+    # ... and on a larger one plain diffusion, lower error than ambient scattering on every trade
+    # scene at a similar camera-move cost
+    monkeypatch.setattr(renderer_module, "BALANCED_SWEEP_SAMPLES", int(np.prod(r.geometry.shape)) - 1)
     res = r.render(camera=CAM, window_size=SIZE, model="auto")
     assert res.metadata["model"] == "diffusion" and res.metadata["flux_limited"] is False
     assert res.metadata["sweep_orders"] == 0
@@ -86,6 +93,8 @@ def test_choose_model_decides_auto_and_leaves_other_models_alone():
     assert choose(model="auto", quality="preview") == ("ambient_scattering", {})
     assert choose(model="auto", quality="accurate") == ("diffusion", ACCURATE_DIFFUSION)
     assert ACCURATE_DIFFUSION == {"flux_limited": True, "sweep_orders": 8}
+    assert choose(model="auto") == ("diffusion", BALANCED_DIFFUSION)  # 12³: within BALANCED_SWEEP_SAMPLES
+    assert choose(model="auto", sweep_orders=2) == ("diffusion", {"flux_limited": True, "sweep_orders": 2})
     assert choose(model="auto", time_budget=0.5, denoise=False) == (
         "path_traced", {"time_limit": 0.5, "denoise": False, "samples_per_pixel": BUDGET_MAX_SPP})
     assert choose(model="auto", time_budget=0.5, denoise=False, samples_per_pixel=8) == (
