@@ -127,7 +127,7 @@ ACCURATE_DIFFUSION = {"flux_limited": True, "sweep_orders": AUTO_SWEEP_ORDERS}
 #: samples, and below this count four orders fit in it, lowering the error several-fold on the
 #: scenes the project measures (docs/trade.rst, "What auto renders").
 BALANCED_SWEEP_ORDERS = 4
-BALANCED_SWEEP_SAMPLES = 96 ** 3
+BALANCED_SWEEP_SAMPLES = 64 ** 3
 BALANCED_DIFFUSION = {"flux_limited": True, "sweep_orders": BALANCED_SWEEP_ORDERS}
 #: Cap of samples per pixel when ``auto`` spends a ``time_budget`` on the path tracer.
 BUDGET_MAX_SPP = 4096

@@ -234,7 +234,7 @@ class Renderer:
                ``AUTO_SWEEP_ORDERS`` (8) scattering orders by transport sweeps and flux-limited
                diffusion for the rest, with ``quality="balanced"`` its first
                ``BALANCED_SWEEP_ORDERS`` (4) so on volumes of at most ``BALANCED_SWEEP_SAMPLES``
-               (96³) samples, where they fit in the first-frame budget plain diffusion has on a
+               (64³) samples, where they fit in the first-frame budget plain diffusion has on a
                256³ volume (docs/trade.rst, "What auto renders"), and with ``quality="preview"``
                ``ambient_scattering`` (an isotropic phase function uses a 1D table slice: D does
                not depend on θ).
