@@ -150,8 +150,8 @@ def _float64(*sources):
     are solved with: the solver's kernels are then the ones an all-float64 call compiles (the
     solve_diffusion docstring's, the progressive example's), not one more mix of float32 sources
     and a float64 albedo per kernel — about 10 s of cold compiling each, for these tests alone. The
-    float32 sources are solved by the renderer's tests (float32 albedo) and the coarse-solve tests
-    here (float64 albedo)."""
+    float32 sources are solved by the renderer's tests and the coarse-vs-full tests of
+    test_diffusion_coarse.py (a float32 albedo, as a render's)."""
     return tuple(np.asarray(q, np.float64) for q in sources)
 
 
