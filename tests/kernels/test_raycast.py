@@ -24,10 +24,30 @@ def test_three_albedo_lookup_equals_single_lookups():
             np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
 
 
+def _one_ray_at_a_time(model):
+    """A plain serial loop over the rows [r0, r1) and every column, :func:`raycast_pixel` once per
+    pixel (no tiles, no stride order, one thread). ``model`` is a constant of the loop, as in the
+    CPU drivers (:func:`raycast_driver`): ``raycast_pixel`` is the one compiled for the model, not a
+    build with the model a run-time value, which would cost its own cold compile (~30 s) and serve
+    this test alone."""
+    import numba
+
+    from pv_ambient._kernels import raycast
+
+    @numba.njit
+    def rows(baked, mode, view, march, medium, lights, grid, ambient, diffusion, r0, r1, out_rad, out_alpha):
+        for j in range(r0, r1):
+            for i in range(out_alpha.shape[1]):
+                raycast.raycast_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, diffusion, j,
+                                      i, out_rad, out_alpha)
+
+    return rows
+
+
 def test_tiled_driver_renders_each_pixel_of_its_rows_once(monkeypatch):
     """Why: the CPU driver marches TILE² pixel tiles (cache locality), not rows; a band of rows whose
     height and width are no multiple of the tile must still get every pixel, as one ray alone gives
-    it, and nothing outside the band, with one thread or two."""
+    it (:func:`_one_ray_at_a_time`), and nothing outside the band, with one thread or two."""
     import numba
 
     from pv_ambient import backend as R
@@ -61,10 +81,8 @@ def test_tiled_driver_renders_each_pixel_of_its_rows_once(monkeypatch):
         out.append((rad, alpha))
     ref_rad = np.full_like(rad, np.nan)
     ref_alpha = np.full_like(alpha, np.nan)
-    for j in range(r0, r1):
-        for i in range(W):
-            raycast.raycast_pixel(*raycast.specialisation(args[0], args[5].baked, args[3].mode), *args[1:], j, i,
-                                      ref_rad, ref_alpha)
+    model, baked, mode = raycast.specialisation(args[0], args[5].baked, args[3].mode)
+    _one_ray_at_a_time(model)(baked, mode, *args[1:], r0, r1, ref_rad, ref_alpha)
     for rad, alpha in out:  # every thread count: the same pixels, bit for bit
         assert np.isnan(alpha[:r0]).all() and np.isnan(alpha[r1:]).all()
         assert (alpha[r0:r1] > 0).mean() > 0.2  # the volume covers part of the band

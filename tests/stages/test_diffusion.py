@@ -142,7 +142,17 @@ def _sphere_scene(n=28, g=0.6):
     omega = np.zeros(sig.shape + (3,))
     omega[..., 0] = 1.0
     Q0, Q1 = dm.first_collision_source(sig, alb, g, E, omega)
-    return sig, alb, Q0, Q1, 2.0 / (n - 1)
+    return sig, alb, *_float64(Q0, Q1), 2.0 / (n - 1)
+
+
+def _float64(*sources):
+    """The sources (float32 from ``first_collision_source``) as float64, like the albedo and σt they
+    are solved with: the solver's kernels are then the ones an all-float64 call compiles (the
+    solve_diffusion docstring's, the progressive example's), not one more mix of float32 sources
+    and a float64 albedo per kernel — about 10 s of cold compiling each, for these tests alone. The
+    float32 sources are solved by the renderer's tests and the coarse-vs-full tests of
+    test_diffusion_coarse.py (a float32 albedo, as a render's)."""
+    return tuple(np.asarray(q, np.float64) for q in sources)
 
 
 @pytest.mark.parametrize("association, flux_limited", [("point", False), ("cell", False), ("point", True)])
@@ -196,7 +206,7 @@ def test_albedo_to_zero_scaling():
 
     def camera_term(a):
         alb = np.full((n, n, n), a)
-        Q0, Q1 = dm.first_collision_source(sig, alb, 0.5, E, omega)
+        Q0, Q1 = _float64(*dm.first_collision_source(sig, alb, 0.5, E, omega))
         sol = dm.solve_diffusion(sig, alb, 0.5, (h, h, h), Q0, Q1, tol=1e-9)
         single = float(np.sum(a * sig * E)) / (4 * math.pi)  # σs E_d/4π summed: single scattering's scale
         return float(np.sum(a * sig * sol.phi)) / (4 * math.pi), float(np.sum(sol.phi)), single

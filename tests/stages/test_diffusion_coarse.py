@@ -42,13 +42,17 @@ def test_transfers_match_a_dense_construction(shape, association):
     assert np.allclose(co.restrict(np.full(shape, 3.5)), 3.5)
 
 
-def _cloud(n, seed=1):
+def _cloud(n, seed=1, albedo_dtype=np.float64):
+    """σt (float64), the RGB albedo (``albedo_dtype``) and the spacing of a cloud on [−1, 1]³. The
+    tests of the coarse solve against the full one take a float32 albedo, as a render's medium has:
+    their solves then run the kernels the render tests compile (a float64 albedo with the float32
+    sources of ``source_in_medium`` compiled a set of its own for them, ~25 s cold)."""
     rng = np.random.default_rng(seed)
     x = np.linspace(-1, 1, n)
     X, Y, Z = np.meshgrid(x, x, x, indexing="ij")
     r = np.sqrt(X ** 2 + Y ** 2 + Z ** 2)
     sig = 6.0 * np.exp(-((r - 0.55) / 0.2) ** 2) + 0.5 + 0.3 * rng.random((n, n, n))
-    alb = np.stack([np.full((n, n, n), a) for a in (0.95, 0.9, 0.8)], axis=-1)
+    alb = np.stack([np.full((n, n, n), a) for a in (0.95, 0.9, 0.8)], axis=-1).astype(albedo_dtype)
     return sig, alb, 2.0 / (n - 1)
 
 
@@ -88,7 +92,7 @@ def test_coarse_solve_against_the_full_resolution():
     from types import SimpleNamespace
 
     n = 65
-    sig, alb, h = _cloud(n)
+    sig, alb, h = _cloud(n, albedo_dtype=np.float32)
     geo = make_geometry((n, n, n), np.diag([h, h, h, 1.0]))
     pos = (0.1, -0.05, 0.0)
     light = PointLight(tuple(p + 1.0 for p in pos), (1.0, 1.0, 1.0))  # world: index · h, box at 0
@@ -165,6 +169,9 @@ def test_coarse_solve_with_a_first_moment_source():
     E, om = direct_irradiance(light, geo, tau, grid, sigma_t=sig)
     Q0, Q1 = source_in_medium(med, g, E, om)
     assert Q1 is not None
+    # float64 sources like the float64 albedo: the solver's kernels of an all-float64 call (as
+    # tests/stages/test_diffusion.py's), not a float32-source mix compiled for this test alone
+    Q0, Q1 = Q0.astype(np.float64), Q1.astype(np.float64)
     full = solve_in_medium(med, g, (h, h, h), Q0, Q1, tol=1e-6)
     co = dc.Coarsening.of(geo)
     floor = 1.0 / mean_chord((n, n, n), np.full(3, h))
@@ -191,7 +198,7 @@ def test_solve_for_light_on_a_rotated_grid(association, monkeypatch):
     from pv_ambient.stages.diffusion import solve_for_light
 
     n = 66
-    sig, alb, h = _cloud(n - 1 if association == "cell" else n)
+    sig, alb, h = _cloud(n - 1 if association == "cell" else n, albedo_dtype=np.float32)
     c, s = np.cos(0.4), np.sin(0.4)
     M = np.eye(4)
     M[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) * h

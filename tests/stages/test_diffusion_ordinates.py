@@ -203,7 +203,9 @@ def test_orders_in_an_infinite_medium():
         # each scattering multiplies the first moment by g (the beam-and-isotropic mixture keeps it)
         assert F_k[c][0] == pytest.approx([0.0, 0.0, 0.5 ** K * phi_k[c][0]], abs=3e-3 * phi_k[c][0])
     medium = dm.DiffusionMedium.from_arrays(np.full(shape, sig), alb)
-    sol = dm.solve_in_medium(medium, 0.5, (h,) * 3, a * sig * phi_k, 0.5 * a * sig * F_k)
+    # F_k is float32: the first-moment source as float64, like the rest (the solver's all-float64
+    # kernels, not a mix compiled for this test alone: ~10 s of cold compiling)
+    sol = dm.solve_in_medium(medium, 0.5, (h,) * 3, a * sig * phi_k, 0.5 * a * sig * F_k.astype(np.float64))
     assert phi[c][0] + sol.phi[c][0] == pytest.approx(q / ((1 - a) * sig), rel=1e-3)
 
 
