@@ -171,12 +171,15 @@ class Renderer:
             if "samples_per_pixel" not in request.explicit:
                 extra["samples_per_pixel"] = BUDGET_MAX_SPP
             return "path_traced", extra
+        sweeps = None
         if model == "diffusion" and request.quality == "accurate":
-            return model, {k: request.options.get(k, v) for k, v in ACCURATE_DIFFUSION.items()}
-        if (model == "diffusion" and request.quality == "balanced"
-                and int(np.prod(self.geometry.shape)) <= BALANCED_SWEEP_SAMPLES):
-            return model, {k: request.options.get(k, v) for k, v in BALANCED_DIFFUSION.items()}
-        return model, {}
+            sweeps = ACCURATE_DIFFUSION
+        elif (model == "diffusion" and request.quality == "balanced"
+              and int(np.prod(self.geometry.shape)) <= BALANCED_SWEEP_SAMPLES):
+            sweeps = BALANCED_DIFFUSION
+        if sweeps is None:
+            return model, {}
+        return model, {k: request.options.get(k, v) for k, v in sweeps.items()}  # the caller's options first
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
