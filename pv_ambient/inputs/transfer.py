@@ -103,6 +103,24 @@ class Optics:
             return self.aux[..., 0:3]
         return _lookup(self, self.field, COL_ALBEDO, 3)
 
+    def albedo_channel(self, c) -> np.ndarray:
+        """Albedo channel ``c`` (0 red, 1 green, 2 blue) at every sample, (nx, ny, nz) float32: one
+        channel at a time, for stages that reduce the albedo per channel (the ball grid), so the
+        (nx, ny, nz, 3) grid of :meth:`albedo_grid` is never held. A view of ``aux`` in mode GRID
+        (read-only use)."""
+        if self.mode == MODE_GRID:
+            return self.aux[..., c]
+        return _lookup(self, self.field, COL_ALBEDO + c, 1)[..., 0]
+
+    def albedo_same_as_previous(self) -> tuple:
+        """For each albedo channel, whether it equals the channel before it everywhere (channel 0:
+        False): a grey albedo reduces one channel and copies it. From the table's columns in mode
+        LUT (equal columns give equal lookups), by comparing the channels in mode GRID."""
+        if self.mode == MODE_GRID:
+            return (False,) + tuple(bool(np.array_equal(self.aux[..., c], self.aux[..., c - 1])) for c in (1, 2))
+        t = self.table
+        return (False,) + tuple(bool(np.array_equal(t[:, COL_ALBEDO + c], t[:, COL_ALBEDO + c - 1])) for c in (1, 2))
+
     def albedo_as_colour(self) -> "Optics":
         """The same σt with the colour (the emission–absorption source) replaced by the scattering
         albedo: its emission–absorption image is ``∫ T σt a dt``, the expected albedo at each ray's

@@ -132,7 +132,8 @@ class SceneStages:
         from ..stages.ball import ball_grid
 
         return self.cache.get(("ball", float(radius)), lambda: ball_grid(
-            self.optics.sigma_grid(), self.optics.albedo_grid(), self.geometry.spacing, radius))
+            self.optics.sigma_grid(), self.optics.albedo_channel, self.geometry.spacing, radius,
+            same_as_previous=self.optics.albedo_same_as_previous()))
 
     def albedo_range(self, radius):
         """(min, max) of the ball-mean albedo over the medium (cached with the ball grid: every

@@ -8,25 +8,55 @@ import numpy as np
 from .sat import mean_extinction
 
 
-def ball_grid(sigma, albedo, spacing, radius) -> np.ndarray:
+def ball_grid(sigma, albedo, spacing, radius, same_as_previous=None) -> np.ndarray:
     """σ̄ (mean extinction over the ball of world radius ``radius``) and the ball's mean albedo
     ā = mean(σs)/σ̄ per channel, at every data sample: float32 (nx, ny, nz, 4).
 
-    ``sigma`` is σt on the samples (nx, ny, nz), ``albedo`` the albedo (nx, ny, nz, 3). A grey
-    albedo takes one box mean for every channel."""
-    from .._kernels.sat import ball_albedo
+    ``sigma`` is σt on the samples (nx, ny, nz); ``albedo`` the albedo (nx, ny, nz, 3), or a
+    function ``c ↦`` channel ``c`` on the samples (:meth:`pv_ambient.inputs.transfer.Optics.albedo_channel`),
+    called once per channel so that one channel at a time is held. ``same_as_previous[c]`` says
+    that channel ``c`` equals channel ``c − 1`` (a grey albedo), which then takes the same box
+    mean; compared here when not given.
 
-    out = np.zeros(sigma.shape + (4,), np.float32)
+    The box means are separable (:func:`pv_ambient.stages.sat.box_mean_separable`, done in place),
+    so besides the result the stage holds σ̄ and one channel's σ·a: 2× the float32 volume."""
+    from .._kernels.sat import ball_albedo_into
+
+    if callable(albedo):
+        channel = albedo
+    else:
+        albedo = np.asarray(albedo)
+
+        def channel(c):
+            return albedo[..., c]
+
+        if same_as_previous is None:
+            same_as_previous = (False,) + tuple(bool(np.array_equal(albedo[..., c], albedo[..., c - 1]))
+                                                for c in (1, 2))
+    same = tuple(same_as_previous) if same_as_previous is not None else (False, False, False)
+    sigma = np.asarray(sigma)
+    out = np.empty(sigma.shape + (4,), np.float32)
     sbar = mean_extinction(sigma, spacing, radius)
-    out[..., 0] = sbar
-    abar = np.empty(sigma.shape, np.float32)
     for c in range(3):
-        if c > 0 and np.array_equal(albedo[..., c], albedo[..., c - 1]):
+        if c > 0 and same[c]:
             out[..., 1 + c] = out[..., c]  # grey albedo: one box mean serves every channel
             continue
-        ball_albedo(sbar, mean_extinction(np.multiply(sigma, albedo[..., c]), spacing, radius), abar)
-        out[..., 1 + c] = abar
+        ms = np.multiply(sigma, channel(c), dtype=np.float32)
+        ms = mean_extinction(ms, spacing, radius) if ms.size == 0 else _mean_in_place(ms, spacing, radius)
+        ball_albedo_into(sbar, ms, out, 1 + c)
+        del ms
+    out[..., 0] = sbar
     return out
+
+
+def _mean_in_place(field, spacing, radius):
+    """:func:`pv_ambient.stages.sat.mean_extinction` of a float32 C-contiguous array of this module's
+    own, overwritten (no copy)."""
+    from .sat import box_half_edges, box_mean_separable
+
+    if radius > 0.0:
+        box_mean_separable(field, box_half_edges(spacing, radius), field)
+    return field
 
 
 def albedo_range(ball) -> tuple:

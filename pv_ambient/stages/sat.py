@@ -14,6 +14,9 @@ Conventions (shared with the kernels in :mod:`pv_ambient._kernels.sat`):
   ``(nx+1, ny+1, nz+1)``. A float32 table would lose ~7 digits to the running sums of a large
   grid (the tests show a 256³ grid's total off by far more than 1e-6); the table is read at
   fractional corners by trilinear interpolation, which is exact for a piecewise-constant field.
+* :func:`mean_extinction` takes the same box integral one axis at a time
+  (:func:`box_mean_separable`): the box is a product of intervals, so three passes of 1-D
+  prefix sums replace the 3-D table (no float64 copy of the grid, one pass per axis).
 * ``σ̄`` divides by the *full* box volume: vacuum outside the grid counts as zero, so σ̄ drops
   near the boundary (light escapes there).
 
@@ -32,7 +35,8 @@ import numpy as np
 
 from ..inputs.validation import check_array, check_real, check_vector, show_value
 
-__all__ = ["BOX_EDGE_PER_RADIUS", "build_sat", "box_sum", "box_mean", "box_half_edges", "mean_extinction"]
+__all__ = ["BOX_EDGE_PER_RADIUS", "build_sat", "box_sum", "box_mean", "box_half_edges", "mean_extinction",
+           "box_mean_separable"]
 
 BOX_EDGE_PER_RADIUS = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
 """Edge of the cube with the volume of the unit ball, ``(4π/3)^{1/3} ≈ 1.612``."""
@@ -177,8 +181,10 @@ def mean_extinction(sigma, spacing, radius) -> np.ndarray:
     """Mean extinction σ̄ over the ball of world ``radius`` around every sample (docs/ambient_scattering.rst §1).
 
     The ball is replaced by the box of equal volume (edge ``radius·(4π/3)^{1/3}``) centred on the
-    sample; its integral comes from a float64 summed-area table and is divided by the full box
-    volume, so vacuum outside the grid counts as zero and σ̄ drops near the boundary.
+    sample; its integral, the summed-area table's box integral computed one axis at a time
+    (:func:`box_mean_separable`: float64 prefix sums per line, no float64 copy of the grid), is
+    divided by the full box volume, so vacuum outside the grid counts as zero and σ̄ drops near
+    the boundary.
 
     Parameters
     ----------
@@ -206,17 +212,51 @@ def mean_extinction(sigma, spacing, radius) -> np.ndarray:
     >>> bool(m[0, 0, 0] < m[0, 4, 4] < m[4, 4, 4])     # less medium near faces and corners
     True
     """
-    from .._kernels.sat import build_sat_into, mean_extinction_grid
-
     arr = check_array(sigma, "sigma", ndim=3, dtype="float", lo=0.0)
     h = _check_spacing(spacing)
     r = check_real(radius, "radius", lo=0.0)
     a = r * BOX_EDGE_PER_RADIUS / (2.0 * h)
-    if arr.size == 0 or r == 0.0 or np.all(a <= 0.5):
-        # a box of half-edge ≤ ½ centred on a sample lies inside that sample's cell
-        return np.array(arr, dtype=np.float32, copy=True)
-    S = np.zeros(tuple(n + 1 for n in arr.shape), np.float64)
-    build_sat_into(arr, S)
-    out = np.empty(arr.shape, np.float32)
-    mean_extinction_grid(S, float(a[0]), float(a[1]), float(a[2]), out)
+    out = np.array(arr, dtype=np.float32, copy=True)
+    if arr.size and r > 0.0:
+        box_mean_separable(out, a, out)
     return out
+
+
+def axis_weights(n, a):
+    """Where one axis of a box mean reads its line's cumulative integral: for every sample ``c`` of
+    an axis of ``n`` cells, the cell and fraction ``(i, f)`` of ``c − a + ½`` and of ``c + a + ½``
+    clamped to ``[0, n]`` (the integral ``C(x) = (1 − f)·P[i] + f·P[i+1]`` from the prefix sums
+    ``P`` is exact for the piecewise-constant field; clamping makes the vacuum outside count as
+    zero). Returns ``i0, f0, i1, f1`` (int64, float64 arrays of length n)."""
+    c = np.arange(n, dtype=np.float64)
+    out = []
+    for u in (np.clip(c - a + 0.5, 0.0, n), np.clip(c + a + 0.5, 0.0, n)):
+        i = np.minimum(np.floor(u), n - 1).astype(np.int64)
+        out += [i, u - i]
+    return out
+
+
+def box_mean_separable(src, half_edges, dst):
+    """Mean over the box of ``half_edges`` (index units per axis) around every sample of the 3-D
+    float32 field ``src`` into ``dst`` (float32, same shape; may be ``src``), vacuum outside the
+    grid counting as zero — the same value as :func:`box_mean` on the summed-area table.
+
+    Why separable: the box is a product of intervals, so its mean is three 1-D interval means in
+    turn, each from a line's float64 prefix sums; the summed-area table's 64-term contraction per
+    sample and its float64 copy of the grid (twice the float32 volume) are not needed. An axis
+    whose half-edge is at most ½ keeps every sample's own cell: that pass is the identity and is
+    skipped."""
+    from .._kernels.sat import box_mean_x, box_mean_y, box_mean_z
+
+    passes = (box_mean_x, box_mean_y, box_mean_z)
+    cur = src
+    for ax in range(3):
+        a = float(half_edges[ax])
+        if a <= 0.5:
+            continue
+        i0, f0, i1, f1 = axis_weights(src.shape[ax], a)
+        passes[ax](cur, dst, i0, f0, i1, f1, 1.0 / (2.0 * a))
+        cur = dst
+    if cur is not dst:
+        dst[...] = src
+    return dst
