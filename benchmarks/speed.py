@@ -40,7 +40,8 @@ NUMBA_NUM_THREADS = each of ``--threads`` (default 1,2) and prints the speed-ups
 vtk, for a many-core machine that lacks them); ``--memory`` renders AS with two lights in a fresh
 subprocess and prints its peak resident-set growth above its size after imports, loading the grid and
 a warm-up compile (``resource.getrusage``; the peak restarted there through ``/proc/self/clear_refs``)
-as a multiple of the volume's float32 size; ``--drag`` prints frames
+as a multiple of the volume's float32 size (``--memory-only``: that line alone, into
+``speed_memory_n{N}.txt``); ``--drag`` prints frames
 per second over a simulated 36-step camera drag (1° azimuth per step, caches warm) per model, in a plotter
 with ``interactive=True`` (drag frames at half resolution per axis) and the resting frame after it.
 
@@ -590,6 +591,8 @@ def main(argv=None):
     ap.add_argument("--threads-scaling", action="store_true", help="camera-move and relight rows with 1 and 2 threads")
     ap.add_argument("--memory", action="store_true", help="peak RSS growth of a fresh process rendering AS, 2 lights")
     ap.add_argument("--drag", action="store_true", help="frames per second over a 36-frame camera drag")
+    ap.add_argument("--memory-only", action="store_true",
+                    help="only the memory line (no VTK table), into speed_memory_n{N}.txt")
     ap.add_argument("--drag-only", action="store_true",
                     help="only the camera drag (no VTK table), into speed_drag_n{N}.txt")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"), help="folder of speed_n{N}.txt")
@@ -608,6 +611,10 @@ def main(argv=None):
         if not os.path.exists(args.tf_nodes):
             write_tf_nodes(args.tf_nodes)
         os.environ[TF_NODES_ENV] = os.path.abspath(args.tf_nodes)
+    if args.memory_only:
+        lines = [command_line(), ""] + memory(args)
+        print("\n".join(lines))
+        return write_result(args, "speed_memory", lines)
     if args.drag_only:
         frames = make_frames(args.n, size)
         for model in MODELS:  # every model's caches warm before the drags

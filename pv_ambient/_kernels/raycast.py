@@ -141,8 +141,9 @@ def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
 
 
 @scalar(inline=True)
-def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, i, j, k, out):
-    """Node (i, j, k) of the baked in-scattered light (:func:`bake_incident`)."""
+def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, i, j, k, out):
+    """Node (i, j, k) of the baked in-scattered light (:func:`bake_incident`): adds the lights' sum
+    to slot ``q`` (its first channel)."""
     x = lo[0] + i * step[0]
     y = lo[1] + j * step[1]
     z = lo[2] + k * step[2]
@@ -150,9 +151,6 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_
     wy = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 2] * z + i2w[1, 3]
     wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
     lkind, lvec, d2min = lights.kind, lights.vec, lights.d2min
-    nl = lkind.shape[0]
-    for q in range(out.shape[3]):
-        out[i, j, k, q] = 0.0
     ball_tau = 0.0
     b1 = 0.0
     b2 = 0.0
@@ -161,8 +159,7 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_
         bs, b1, b2, b3 = trilinear4(ambient.ball, x, y, z)
         ball_tau = ambient.radius * bs
     it, tt = tau_coord(ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, ball_tau)
-    slot = 0
-    for l in range(nl):
+    for l in range(lkind.shape[0]):
         # isotropic phase and D: any view direction gives the same value
         sr, sg, sb = direct_light_one(l, x, y, z, wx, wy, wz, 0.0, 0.0, 1.0, lights, grid)
         if model == AMBIENT_SCATTERING:
@@ -171,7 +168,6 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_
             sr += mr
             sg += mg
             sb += mb
-        q = slot * nch
         if lkind[l] == 0:  # undo the 1/d² the lookup applies at the sample
             vx = wx - lvec[l, 0]
             vy = wy - lvec[l, 1]
@@ -180,36 +176,43 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_
             sr *= d2
             sg *= d2
             sb *= d2
-            slot += 1
-        else:
-            q = (out.shape[3] // nch - 1) * nch
         out[i, j, k, q] += sr
         if nch == 3:
             out[i, j, k, q + 1] += sg
             out[i, j, k, q + 2] += sb
-    if with_diff:  # diffusion's φ/4π at this data sample (isotropic phase), in the last slot
-        q = (out.shape[3] // nch - 1) * nch
-        per, nd = diffusion_layout(diff.shape[3])  # (φ, F) per channel, or φ alone
-        for c in range(nch):
-            out[i, j, k, q + c] += max(diff[i, j, k, per * min(c, nd - 1)], 0.0) * INV_4PI_RC
 
 
 @driver
-def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, out):
-    """The in-scattered light per unit albedo at every light-grid node for an isotropic phase
-    function (view-independent): per light ``E_j T_j p`` (single scattering and diffusion's direct
-    part) plus, for ambient scattering, ``E_j Φ_j D(r σ̄, ā)`` (D has no angle then). A point light
-    gets a slot of its own holding that times ``max(d_j², d2min)`` (smooth: :func:`baked_light`
-    divides by d² at the sample); the directional lights share the last slot. Node (i, j, k) sits at
-    data index ``lo + (i, j, k)·step``; ``w2i``/``i2w`` map world ↔ index. ``nch`` channels per slot:
-    1 when every channel is equal (the red one is kept), else 3; ``out`` is (m0, m1, m2, slots·nch).
-    With ``with_diff`` the nodes are the data samples and diffusion's ``max(φ_c, 0)/4π`` (``diff``:
-    (nx, ny, nz, 4) grey or 12 per channel, :func:`diffusion_light`'s field) joins the last slot."""
+def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, out):
+    """Adds to slot ``q`` of ``out`` the in-scattered light per unit albedo of ``lights`` at every
+    light-grid node for an isotropic phase function (view-independent): per light ``E_j T_j p``
+    (single scattering and diffusion's direct part) plus, for ambient scattering, ``E_j Φ_j D(r σ̄,
+    ā)`` (D has no angle then), a point light's times ``max(d_j², d2min)`` (smooth:
+    :func:`baked_light` divides by d² at the sample). Node (i, j, k) sits at data index
+    ``lo + (i, j, k)·step``; ``w2i``/``i2w`` map world ↔ index. ``nch`` channels per slot: 1 when
+    every channel is equal (the red one is kept), else 3; ``out`` is (m0, m1, m2, slots·nch), a slot
+    per point light and the last for the directional lights
+    (:func:`pv_ambient.stages.bake.bake_incident` bakes the lights one slot at a time, each from
+    its own volumes)."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
     for i in prange(m0):  # the last index innermost: ``out`` and the light grid are C-ordered
         for j in range(m1):
             for k in range(m2):
-                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, diff, with_diff, i, j, k, out)
+                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, i, j, k, out)
+
+
+@driver
+def bake_diffusion(diff, q, nch, out):
+    """Adds diffusion's ``max(φ_c, 0)/4π`` to slot ``q`` of the bake ``out`` (whose nodes are the
+    data samples: trilinear interpolation is linear, so reading the slot equals reading φ beside
+    it); ``diff`` (nx, ny, nz, n) in :func:`diffusion_layout`'s layout."""
+    m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
+    per, nd = diffusion_layout(diff.shape[3])
+    for i in prange(m0):
+        for j in range(m1):
+            for k in range(m2):
+                for c in range(nch):
+                    out[i, j, k, q + c] += max(diff[i, j, k, per * min(c, nd - 1)], 0.0) * INV_4PI_RC
 
 
 @scalar(force_inline=True)

@@ -34,8 +34,8 @@ class _Inputs:
     taus: tuple = ()
     ball: np.ndarray = field(default_factory=lambda: K.NONE4)
     table: tuple = (K.NONE3, K.NONE1, 0.0, 1.0)
-    # the tube fronts; None: Beer–Lambert (the τ grids read at the ball's entry point)
-    phi: object = field(default_factory=lambda: K.NONE4)
+    # each light's tube front; None: Beer–Lambert (the τ grids read at the ball's entry point)
+    fronts: object = None
     diffusion: np.ndarray = field(default_factory=lambda: K.NONE12)
     diffusion_info: dict | None = None
 
@@ -59,11 +59,7 @@ def _ambient(renderer, req, model, inputs):
     D, _, a_nodes, lo_log, dlog = tab.lookup_args()
     inputs.table = (D, a_nodes, lo_log, dlog)
     if req.propagation == "tube":
-        fronts = [stages.front_depth(lt, grid, radius, ph, req.table_quality) for lt in inputs.lights]
-        inputs.phi = stages.stacked("front_stack", inputs.lights, grid, fronts,
-                                    extra=(float(radius), stages.table_key(ph, radius, req.table_quality)))
-    else:
-        inputs.phi = None
+        inputs.fronts = tuple(stages.front_depth(lt, grid, radius, ph, req.table_quality) for lt in inputs.lights)
 
 
 def _diffusion(renderer, req, options, inputs):
@@ -109,11 +105,11 @@ def _bake(renderer, req, model, options, inputs, records, d2min):
     # (docs/jupyter.rst, "Server rendering") do not re-bake
     clamp = d2min if any(isinstance(lt, PointLight) for lt in inputs.lights) else None
     with stage_bar(req.progress_bar, "baked in-scattering") as bar:
-        inc = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
-                              (model, clamp, radius, tkey, req.propagation, ph.canonical(), dkey),
-                              diffusion=inputs.diffusion if fold else None)
+        inc, nch = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
+                                   (model, clamp, radius, tkey, req.propagation, ph.canonical(), dkey),
+                                   inputs.taus, inputs.fronts, diffusion=inputs.diffusion if fold else None)
         bar.update()
-    return grec._replace(inc=inc[0], baked=inc[1]), MODEL_IDS["single_scattering" if fold else model]
+    return grec._replace(inc=inc, baked=nch), MODEL_IDS["single_scattering" if fold else model]
 
 
 def raycast_records(renderer, req, model, options, inputs):
@@ -123,15 +119,23 @@ def raycast_records(renderer, req, model, options, inputs):
     d2min = (0.25 * req.step) ** 2  # a point light's I/d² clamped at a quarter step
     # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
     bake = bool(req.bake_lights and inputs.lights and ph.canonical()[2])
-    tau = stages.stacked("tau_stack", inputs.lights, inputs.grid, inputs.taus) if inputs.taus else K.NONE4
     lg = inputs.grid if inputs.grid is not None else NO_GRID
     lrec = K.lights_of(pack_lights(inputs.lights), ph, d2min)
-    grec = K.LightGrid(lg.lo, lg.inv_step, tau, tau if inputs.phi is None else inputs.phi, K.NONE4, 0)
     D, a_nodes, lo_log, dlog = inputs.table
     arec = K.Ambient(req.radius, inputs.ball, req.ambient_radiance, D, a_nodes, lo_log, dlog)
     kernel_model = MODEL_IDS[model]
     if bake:
+        # the bake reads each light's volumes; the baked ray cast reads neither them nor the ball
+        # (placeholders: no stacked copy is made, and a GPU does not hold them for the camera)
+        grec = K.LightGrid(lg.lo, lg.inv_step, K.NONE4, K.NONE4, K.NONE4, 0)
         grec, kernel_model = _bake(renderer, req, model, options, inputs, (lrec, grec, arec), d2min)
+        arec = arec._replace(ball=K.NONE4)
+    else:
+        tau = stages.stacked("tau_stack", inputs.lights, inputs.grid, inputs.taus) if inputs.taus else K.NONE4
+        phi = tau if inputs.fronts is None else stages.stacked(
+            "front_stack", inputs.lights, inputs.grid, inputs.fronts,
+            extra=(float(req.radius), stages.table_key(ph, req.radius, req.table_quality)))
+        grec = K.LightGrid(lg.lo, lg.inv_step, tau, phi, K.NONE4, 0)
     args = (kernel_model,
             K.view_of(req.camera, req.window_size, renderer.geometry),
             K.March(req.step, req.jitter, req.seed, req.early_termination, req.background, req.t_end,

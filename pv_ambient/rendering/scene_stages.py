@@ -17,6 +17,7 @@ import numpy as np
 
 from .._kernels import records as K
 from ..backend import blas_before_stage
+from ..inputs.lights import PointLight
 from .presets import MAJORANT_BLOCK, TAU_OPAQUE, light_resolution_for
 from .cache import SceneCache
 
@@ -246,18 +247,30 @@ class SceneStages:
         return self.cache[key]
 
     # -- baked in-scattering and diffusion ---------------------------------------------------
-    def incident(self, model_id, lights, grid, records, key, diffusion=None):
+    def incident(self, model_id, lights, grid, records, key, taus, phis=None, diffusion=None):
         """The baked in-scattered light of ``lights`` on ``grid``, ``(array, nch)``
         (:func:`pv_ambient.stages.bake.bake_incident`): ``records`` are the kernel's Lights,
-        LightGrid and Ambient records, ``key`` what else they depend on (model, the d² clamp,
-        radius, table, propagation, diffusion options). A camera move reads it; a relight rebakes it
-        from the cached light volumes (one pass over the light grid)."""
-        from ..stages.bake import bake_incident
+        LightGrid and Ambient records, ``taus`` / ``phis`` each light's optical depth and tube front,
+        ``key`` what else they depend on (model, the d² clamp, radius, table, propagation, diffusion
+        options). A camera move reads it; a relight rebakes the slots of the lights that moved and
+        copies the others' from the bake it replaces."""
+        from ..stages.bake import bake_incident, incident_slots
 
         key = ("incident", tuple(lights), grid.key()) + tuple(key)
         if key not in self.cache:
+            reuse = {}
+            for old in self.cache.keys("incident"):
+                if old[2:] != key[2:]:
+                    continue
+                inc, nch = self.cache[old]
+                old_lights = old[1]
+                old_slots = incident_slots([0 if isinstance(lt, PointLight) else 1 for lt in old_lights])
+                for j, lt in enumerate(lights):
+                    if isinstance(lt, PointLight) and lt in old_lights:
+                        q = old_slots[old_lights.index(lt)] * nch
+                        reuse[j] = inc[..., q:q + nch]
             value = self._timed("baked in-scattering", lambda: bake_incident(model_id, records, self.geometry, grid,
-                                                                             diffusion))
+                                                                             taus, phis, diffusion, reuse))
             self._replace("incident", key, value)
         return self.cache[key]
 

@@ -22,23 +22,52 @@ def incident_channels(power, ball, diffusion=None) -> int:
     return 1 if grey else 3
 
 
-def bake_incident(model_id, records, geometry, grid, diffusion=None) -> tuple:
+def incident_slots(kinds) -> list:
+    """The slot of each light in the bake: a slot per point light in order, one after them for every
+    directional light (and diffusion's term)."""
+    points = int(np.sum(np.asarray(kinds) == 0))
+    out, p = [], 0
+    for kind in kinds:
+        out.append(p if kind == 0 else points)
+        p += kind == 0
+    return out
+
+
+def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=None, reuse=None) -> tuple:
     """The in-scattered light of the lights per unit albedo at the nodes of ``grid``, ``(array,
     nch)``: float32 (m0, m1, m2, slots·nch), a slot per point light (times d²) and one for the
-    directional lights, ``nch`` from :func:`incident_channels`
+    directional lights (:func:`incident_slots`), ``nch`` from :func:`incident_channels`
     (:func:`pv_ambient._kernels.raycast.bake_incident`): single scattering's direct light, plus
     ambient scattering's ball term.
 
-    ``records`` are the kernel's Lights, LightGrid and Ambient records; ``diffusion`` a diffusion
-    field on the data samples, which must be the light-grid nodes, added as ``max(φ, 0)/4π``."""
+    ``records`` are the kernel's Lights, LightGrid and Ambient records (the light grid's ``tau`` and
+    ``phi`` unused); ``taus`` the optical depth of each light on ``grid`` and ``phis`` its tube front
+    (None: Beer–Lambert, the optical depth again): the lights are baked one at a time, each from its
+    own volumes, so no stacked copy of every light's volumes is made. ``reuse`` maps a light's index
+    to a slot array already baked for it with everything else equal (a relight: the lights that did
+    not move), copied instead of baked. ``diffusion`` is a diffusion field on the data samples,
+    which must be the light-grid nodes, added as ``max(φ, 0)/4π`` to the last slot."""
+    from .._kernels.raycast import bake_diffusion
     from .._kernels.raycast import bake_incident as bake
+    from .medium import stack_volumes
 
     lrec, grec, arec = records
     nch = incident_channels(lrec.power, arec.ball, diffusion)
-    # a slot per point light, one for all directional lights (and the diffusion term)
-    slots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
-    out = np.zeros(tuple(grid.shape) + (slots * nch,), np.float32)
-    diff = K.NONE12 if diffusion is None else diffusion
-    bake(model_id, lrec, grec, arec, geometry.world_to_index, geometry.index_to_world, grid.lo, grid.step, nch, diff,
-         diffusion is not None, out)
+    slots = incident_slots(lrec.kind)
+    nslots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
+    out = np.zeros(tuple(grid.shape) + (nslots * nch,), np.float32)
+    reuse = reuse or {}
+    for j in range(len(lrec.kind)):
+        q = slots[j] * nch
+        if j in reuse and reuse[j].shape[-1] == nch:
+            out[..., q:q + nch] = reuse[j]
+            continue
+        one = lrec._replace(kind=lrec.kind[j:j + 1].copy(), vec=lrec.vec[j:j + 1].copy(),
+                            power=lrec.power[j:j + 1].copy())
+        tau = stack_volumes([taus[j]])
+        phi = tau if phis is None else stack_volumes([phis[j]])
+        bake(model_id, one, grec._replace(tau=tau, phi=phi), arec, geometry.world_to_index, geometry.index_to_world,
+             grid.lo, grid.step, nch, q, out)
+    if diffusion is not None:
+        bake_diffusion(diffusion, (nslots - 1) * nch, nch, out)
     return out, nch
