@@ -141,9 +141,11 @@ def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
 
 
 @scalar(inline=True)
-def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, i, j, k, out):
+def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, on_samples, i, j, k, out):
     """Node (i, j, k) of the baked in-scattered light (:func:`bake_incident`): adds the lights' sum
-    to slot ``q`` (its first channel)."""
+    to slot ``q`` (its first channel). A light's optical depth is read at the node itself (the
+    node's value, nothing to interpolate), and so is the ball grid when the nodes are the data
+    samples (``on_samples``)."""
     x = lo[0] + i * step[0]
     y = lo[1] + j * step[1]
     z = lo[2] + k * step[2]
@@ -156,12 +158,21 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, i, j, k,
     b2 = 0.0
     b3 = 0.0
     if model == AMBIENT_SCATTERING:
-        bs, b1, b2, b3 = trilinear4(ambient.ball, x, y, z)
+        ball = ambient.ball
+        if on_samples:
+            bs, b1, b2, b3 = ball[i, j, k, 0], ball[i, j, k, 1], ball[i, j, k, 2], ball[i, j, k, 3]
+        else:
+            bs, b1, b2, b3 = trilinear4(ball, x, y, z)
         ball_tau = ambient.radius * bs
     it, tt = tau_coord(ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, ball_tau)
     for l in range(lkind.shape[0]):
-        # isotropic phase and D: any view direction gives the same value
-        sr, sg, sb = direct_light_one(l, x, y, z, wx, wy, wz, 0.0, 0.0, 1.0, lights, grid)
+        # isotropic phase and D: any view direction gives the same value (d = +z); the direct
+        # term of :func:`direct_light_one` with T at the node
+        er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
+        w = math.exp(-grid.tau[i, j, k, l]) * phase_eval(lights.pkind, lights.g, -oz)
+        sr = er * w
+        sg = eg * w
+        sb = eb * w
         if model == AMBIENT_SCATTERING:
             mr, mg, mb = ambient_light_one(l, x, y, z, wx, wy, wz, 0.0, 0.0, 1.0, w2i, lights, grid, ambient, it, tt,
                                            b1, b2, b3)
@@ -195,10 +206,13 @@ def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, out)
     (:func:`pv_ambient.stages.bake.bake_incident` bakes the lights one slot at a time, each from
     its own volumes)."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
+    ball = ambient.ball
+    on_samples = (lo[0] == 0.0 and lo[1] == 0.0 and lo[2] == 0.0 and step[0] == 1.0 and step[1] == 1.0
+                  and step[2] == 1.0 and ball.shape[0] == m0 and ball.shape[1] == m1 and ball.shape[2] == m2)
     for i in prange(m0):  # the last index innermost: ``out`` and the light grid are C-ordered
         for j in range(m1):
             for k in range(m2):
-                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, i, j, k, out)
+                bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, on_samples, i, j, k, out)
 
 
 @driver
