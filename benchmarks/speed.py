@@ -34,7 +34,8 @@ cast's segments in non-empty majorant blocks up to early termination — counted
 with the kernels' own scalar functions. Before the table the count is checked on a tiny scene against
 a brute-force NumPy march (:func:`brute_force_count`) and against the ray cast's own alpha.
 
-Options: ``--threads-scaling`` re-runs the camera-move and relight rows and diffusion's first frame in subprocesses with
+Options: ``--models`` and ``--kinds`` keep only some rows (into ``speed_rows_n{N}.txt``; a row's
+stage needs its model's camera move); ``--threads-scaling`` re-runs the camera-move and relight rows and diffusion's first frame in subprocesses with
 NUMBA_NUM_THREADS = each of ``--threads`` (default 1,2) and prints the speed-ups over one thread
 (``--scaling-only``: that table alone, into ``speed_threads_n{N}.txt``; it needs neither pyvista nor
 vtk, for a many-core machine that lacks them); ``--memory`` renders AS with two lights in a fresh
@@ -591,6 +592,10 @@ def main(argv=None):
     ap.add_argument("--threads-scaling", action="store_true", help="camera-move and relight rows with 1 and 2 threads")
     ap.add_argument("--memory", action="store_true", help="peak RSS growth of a fresh process rendering AS, 2 lights")
     ap.add_argument("--drag", action="store_true", help="frames per second over a 36-frame camera drag")
+    ap.add_argument("--models", help="only the rows of these models (comma-separated: EA,SS,AS,diffusion,"
+                    "'auto accurate'); with --kinds, into speed_rows_n{N}.txt")
+    ap.add_argument("--kinds", help="only the rows of these kinds (comma-separated: camera,relight,relight2,tf,first;"
+                    " a stage needs its model's camera row)")
     ap.add_argument("--memory-only", action="store_true",
                     help="only the memory line (no VTK table), into speed_memory_n{N}.txt")
     ap.add_argument("--drag-only", action="store_true",
@@ -639,7 +644,9 @@ def main(argv=None):
     lines = [command_line(), ""] + check_count() + [""]
     print("\n".join(lines), flush=True)
     vtk = VtkPeer(grid, frames.renderer, size, frames.step)
-    rows = measure_rows(frames, vtk, args.repeats)
+    subset = bool(args.models or args.kinds)
+    rows = measure_rows(frames, vtk, args.repeats, kinds=args.kinds.split(",") if args.kinds else None,
+                        models=args.models.split(",") if args.models else None)
     vtk.close()
     threads = numba.get_num_threads()
     table = [f"{SCENE} {args.n}³ ({scenes.DESCRIPTIONS[SCENE]}), {size[0]}x{size[1]}, "
@@ -655,7 +662,7 @@ def main(argv=None):
             table += extra
             lines += extra
     print("\n".join(table))
-    write_result(args, "speed", lines)
+    write_result(args, "speed_rows" if subset else "speed", lines)
     return rows
 
 
