@@ -1,6 +1,6 @@
 """The baked in-scattering read at a sample (docs/models.rst, "Baked in-scattering"): the
 lights' in-scattered light per unit albedo, baked on the light grid for an isotropic phase function
-(:func:`.raycast.bake_incident`), interpolated at the sample, with each point light's 1/d² applied
+(:func:`.bake.bake_incident`), interpolated at the sample, with each point light's 1/d² applied
 there. The per-pixel march (:func:`.raycast.lit_source`) sums it over the light slots in
 :func:`baked_light`; the packet driver (:mod:`.packet`) adds the same terms one slot at a time, in
 the same order, across 16 rays. The sample's point and the interpolation are float32; the sums
@@ -56,7 +56,7 @@ def baked_light(x, y, z, wx, wy, wz, lights, grid):
     """The in-scattered light (rgb, per unit albedo) from the baked ``grid.inc``: per point light its
     smooth factor ``I_j (T_j p + Φ_j D_j)`` interpolated and divided by ``max(d_j², d2min)`` here, at
     the sample (the 1/d² singularity is not interpolated), plus the directional lights' summed slot.
-    ``grid.baked`` is the number of channels per slot (1: grey, 3: rgb); see :func:`bake_incident`.
+    ``grid.baked`` is the number of channels per slot (1: grey, 3: rgb); see :func:`.bake.bake_incident`.
     The point and the interpolation are float32 (:func:`grid_point`, :func:`point_weight`), the sums
     float64: the packet driver (:mod:`.packet`) computes the same, one light at a time."""
     inc = grid.inc
@@ -119,7 +119,7 @@ def diffusion_grey(field, x, y, z):
     """``max(φ, 0)/4π`` of a grey diffusion field (``field``: (nx, ny, nz, n) on the data samples,
     φ in channel 0) at index-space point (x, y, z) (float32): the multiply-scattered light an
     isotropic phase function scatters, read beside the bake where the field was not folded into it
-    (:func:`.raycast.bake_incident`); the packet driver reads the same, 16 rays at a time."""
+    (:func:`.bake.bake_incident`); the packet driver reads the same, 16 rays at a time."""
     v = trilinear32_c(field, x, y, z, 0)
     return max(v, np.float32(0.0)) * INV_4PI
 

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ._jit import driver, prange, scalar
 from .medium import MODE_GRID, lut_coords
 
@@ -155,3 +157,20 @@ def walk_optical_depth(px, py, pz, qx, qy, qz, t0, t1, grid, block):
         walk, ta, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, grid, block)
         tau += m * (tb - ta)
     return tau
+
+
+@driver
+def masked_min(values, mask):
+    """The least of ``values`` where ``mask`` (same 3-D shape) is true, ``inf`` where it never is:
+    one parallel pass, no copy of the selected values (a light's smallest optical depth at the
+    nodes that scatter, :meth:`pv_ambient.rendering.scene_stages.SceneStages.active_lights`)."""
+    n0 = values.shape[0]
+    lows = np.full(n0, np.inf)
+    for i in prange(n0):
+        low = np.inf
+        for j in range(values.shape[1]):
+            for k in range(values.shape[2]):
+                if mask[i, j, k] and values[i, j, k] < low:
+                    low = values[i, j, k]
+        lows[i] = low
+    return lows.min() if n0 else np.inf

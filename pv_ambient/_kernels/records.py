@@ -41,7 +41,7 @@ Lights = namedtuple("Lights", "kind vec power pkind g d2min")
 #: The light grid: its origin and inverse spacing in sample index space, the optical depth of
 #: each light ``tau`` and, in tube mode, the front optical depth ``phi`` (else ``tau`` again);
 #: ``baked`` non-zero when ``inc`` holds the lights' in-scattered light per unit albedo at the nodes
-#: (isotropic phase; :func:`.raycast.bake_incident`), which the ray cast then reads instead of
+#: (isotropic phase; :func:`.bake.bake_incident`), which the ray cast then reads instead of
 #: evaluating each light per sample: the number of channels per slot (1 grey, 3 rgb); 0 otherwise.
 LightGrid = namedtuple("LightGrid", "lo inv_step tau phi inc baked")
 

@@ -196,8 +196,10 @@ class SceneStages:
                 continue
 
             def reaches(lt=lt):
+                from ..stages.medium import least_where
+
                 tau = self.optical_depth(lt, grid, backend)
-                return float(np.min(tau[self.scattering_nodes(grid)])) <= TAU_OPAQUE
+                return least_where(tau, self.scattering_nodes(grid)) <= TAU_OPAQUE
 
             if self.cache.get(("reaches", lt, grid.key()), reaches):
                 out.append(lt)

@@ -37,7 +37,7 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     """The in-scattered light of the lights per unit albedo at the nodes of ``grid``, ``(array,
     nch)``: float32 (m0, m1, m2, slots·nch), a slot per point light (times d²) and one for the
     directional lights (:func:`incident_slots`), ``nch`` from :func:`incident_channels`
-    (:func:`pv_ambient._kernels.raycast.bake_incident`): single scattering's direct light, plus
+    (:func:`pv_ambient._kernels.bake.bake_incident`): single scattering's direct light, plus
     ambient scattering's ball term.
 
     ``records`` are the kernel's Lights, LightGrid and Ambient records (the light grid's ``tau`` and
@@ -47,8 +47,8 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     to a slot array already baked for it with everything else equal (a relight: the lights that did
     not move), copied instead of baked. ``diffusion`` is a diffusion field on the data samples,
     which must be the light-grid nodes, added as ``max(φ, 0)/4π`` to the last slot."""
-    from .._kernels.raycast import bake_diffusion
-    from .._kernels.raycast import bake_incident as bake
+    from .._kernels.bake import bake_diffusion
+    from .._kernels.bake import bake_incident as bake
     from .medium import stack_volumes
 
     lrec, grec, arec = records

@@ -49,3 +49,11 @@ def stack_volumes(parts) -> np.ndarray:
     # type the array as non-contiguous, and compile the ray cast once more for it)
     parts = [a if a.ndim == 4 else a.reshape(a.shape + (1,)) for a in parts]
     return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
+
+
+def least_where(values, mask) -> float:
+    """The least of ``values`` where ``mask`` (a boolean array of the same 3-D shape) is true, inf
+    where it never is — one parallel pass, without copying the selected values out."""
+    from .._kernels.majorant import masked_min
+
+    return float(masked_min(values, mask))

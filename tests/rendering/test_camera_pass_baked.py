@@ -158,7 +158,7 @@ def test_diffusion_folded_into_the_bake_equals_its_per_sample_lookup(monkeypatch
 def test_relight_rebakes_only_the_moved_light():
     # two point lights and a directional one, one point light moved: the other point light's slot
     # is copied from the previous bake (not baked again), and the image equals a fresh renderer's
-    from pv_ambient._kernels import raycast
+    from pv_ambient._kernels import bake as kernels
 
     still = PointLight((-0.2, 0.15, 0.1), intensity=0.7)
     lights = [PointLight((0.05, 0.0, -0.1), intensity=(1.0, 0.8, 0.6)), still, LIGHTS[1]]
@@ -167,17 +167,17 @@ def test_relight_rebakes_only_the_moved_light():
     moved = [PointLight((0.1, -0.05, -0.1), intensity=(1.0, 0.8, 0.6)), still, LIGHTS[1]]
     r.set_lights(moved)
     calls = []
-    bake = raycast.bake_incident
+    bake = kernels.bake_incident
 
     def counting(model, lrec, *args):
         calls.append(tuple(np.asarray(lrec.vec[0]).tolist()))
         return bake(model, lrec, *args)
 
-    raycast.bake_incident = counting
+    kernels.bake_incident = counting
     try:
         again = render(r, "ambient_scattering", True).radiance
     finally:
-        raycast.bake_incident = bake
+        kernels.bake_incident = bake
     assert calls == [moved[0].position, tuple(np.asarray(LIGHTS[1].direction).tolist())]  # not `still`
     (key, (inc, nch)), = r.cache.items("incident")
     assert inc.shape[3] == 3 * nch
