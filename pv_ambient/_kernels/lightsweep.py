@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import math
 
+import numba
+
 from ._jit import driver, prange, scalar
 from .lightvol import TIE, dominant_axis, lateral_range, node_tau, path_length, sweep_start, wlen
 
@@ -196,31 +198,51 @@ def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, c
         write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur)
 
 
+def chunks() -> int:
+    """How many chunks :func:`sweep_rows` splits a region's rows into: Numba's thread count."""
+    return numba.get_num_threads()
+
+
 @driver
-def sweep_rows(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach, rows, inside):
+def sweep_rows(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach, inside, scratch):
     """One sweep along axis 0 of the permuted arrays ``sig`` and ``out`` (C order, the grid's axis
     ``axis`` first, the other two in their order; ``B``'s columns and the light (l0, l1, l2)
     permuted alike) in direction ``sign``: the CPU driver of
-    :func:`pv_ambient.stages.propagation.optical_depth`, layers in order, a layer's rows in
-    parallel by :func:`sweep_row`. ``hist`` and ``reach`` are :func:`.lightvol.sweep_tau`'s;
-    ``rows`` (nb, ≥ 2·jump + 4, nc + 1) float64 is scratch; ``inside``: a point light inside the box."""
+    :func:`pv_ambient.stages.propagation.optical_depth` for a directional light, by
+    :func:`sweep_row` in parallel over the rows of up to ``jump`` layers at once.
+
+    A layer reads only the layer ``J = min(jump, d)`` back (its ``d``-th in sweep order), so layers
+    ``d … d + jump − 1`` depend only on layers before ``d`` and run in one parallel region: a
+    quarter of the waits of one region per layer, which under load (another process holding a
+    core, each wait lasting until the descheduled thread runs again) cost more than the layer.
+    ``hist`` (≥ 2·jump slots, nb, nc) float64 is the ring of the layers' path-mean extinction
+    (:func:`.lightvol.sweep_tau`'s, with room for a group being written while the one before it is
+    read); ``reach`` as there. ``scratch`` (chunks, ≥ 2·jump + 4, nc + 1) float64: one
+    :func:`sweep_row` scratch per chunk of a region's rows (:func:`chunks`: one per thread)."""
     na = sig.shape[0]
     nb = hist.shape[1]
     nc = hist.shape[2]
     nslot = hist.shape[0]
-    k = sweep_start(na, is_point, l0, sign)
-    done_layers = 0
-    while 0 <= k < na:
-        J = min(jump, done_layers)
-        prev = hist[(done_layers - J) % nslot]
-        cur = hist[done_layers % nslot]
-        b0, b1 = lateral_range(nb, l1, reach[k])
-        c0, c1 = lateral_range(nc, l2, reach[k])
-        for ib in prange(b0, b1 + 1):
-            sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, cur, rows[ib], inside)
-        done_layers += 1
-        k += sign
-
+    k0 = sweep_start(na, is_point, l0, sign)
+    nlayers = na - k0 if sign > 0 else k0 + 1
+    nchunk = scratch.shape[0]
+    done = 0
+    while done < nlayers:
+        g = 1 if done == 0 else max(1, min(jump, nlayers - done))
+        total = g * nb
+        for t in prange(nchunk):
+            R = scratch[t]
+            for item in range(total * t // nchunk, total * (t + 1) // nchunk):
+                d = done + item // nb
+                ib = item % nb
+                k = k0 + sign * d
+                b0, b1 = lateral_range(nb, l1, reach[k])
+                if b0 <= ib <= b1:
+                    J = min(jump, d)
+                    c0, c1 = lateral_range(nc, l2, reach[k])
+                    sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, hist[(d - J) % nslot], ib, c0, c1, out,
+                              hist[d % nslot], R, inside)
+        done += g
 
 
 @scalar

@@ -167,8 +167,9 @@ def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
     along memory); the result is added back into ``out``, where a point light's sweeps of the other
     axes wrote their nodes (each node is written by one sweep, the rest stay 0). A point light's
     sweeps run side by side (:func:`~pv_ambient._kernels.lightsweep.sweep_rows_each`), a
-    directional light's one sweep in parallel over each layer's rows."""
-    from .._kernels.lightsweep import permute, sweep_rows, sweep_rows_each, unpermute_add
+    directional light's one sweep in parallel over the rows of ``jump`` layers at a time
+    (:func:`~pv_ambient._kernels.lightsweep.sweep_rows`)."""
+    from .._kernels.lightsweep import chunks, permute, sweep_rows, sweep_rows_each, unpermute_add
 
     shape = grid.shape
     inside = bool(is_point and all(0.0 <= light[i] <= shape[i] - 1.0 for i in range(3)))
@@ -185,22 +186,23 @@ def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
     B_p = {a: np.ascontiguousarray(grid.B[:, order[a]]) for a in axes}
     l_p = {a: np.array([light[i] for i in order[a]]) for a in axes}
 
-    def scratch(a, s):
+    def scratch(a, s, slots):
         lat = sig_p[a].shape[1:]
-        hist = np.zeros((jump + 1,) + lat)
+        hist = np.zeros((slots,) + lat)
         reach = sweep_reach(shape[a], l_p[a][0], s, jump) if is_point else np.full(shape[a], np.inf)
         return hist, reach, np.empty((lat[0], 2 * jump + 4, lat[1] + 1))
 
     if is_point and axes == [0, 1, 2]:
-        hists, reaches, rows = zip(*[scratch(a, s) for a, s in sweeps])
+        hists, reaches, rows = zip(*[scratch(a, s, jump + 1) for a, s in sweeps])
         sweep_rows_each(tuple(sig_p[a] for a in axes), tuple(B_p[a] for a in axes), np.stack([l_p[a] for a in axes]),
                         tuple(out_p[a] for a in axes), np.array([a for a, _ in sweeps]),
                         np.array([s for _, s in sweeps]), jump, hists, reaches, rows, inside)
     else:
         for a, s in sweeps:
-            hist, reach, rows = scratch(a, s)
+            hist, reach, _ = scratch(a, s, max(2 * jump, jump + 1))
             lp = l_p[a]
-            sweep_rows(sig_p[a], B_p[a], is_point, lp[0], lp[1], lp[2], a, s, jump, out_p[a], hist, reach, rows, inside)
+            rows = np.empty((chunks(), 2 * jump + 4, sig_p[a].shape[2] + 1))
+            sweep_rows(sig_p[a], B_p[a], is_point, lp[0], lp[1], lp[2], a, s, jump, out_p[a], hist, reach, inside, rows)
     for a in axes:
         if a != 0:
             unpermute_add(out_p[a], a, out)
