@@ -80,46 +80,35 @@ def write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur):
     out[k, ib, ic] = tau
 
 
+@scalar(force_inline=True)
+def node_steps(f, va, v1, v2):
+    """The step count of :func:`.lightvol.march_tau` over ``t ∈ [0, f]`` along ``v`` (its largest
+    component ``max(va, |v1|, |v2|)``): the same expression, so the same integer."""
+    return int(math.ceil(2.0 * f * max(va, abs(v1), abs(v2)) - TIE)) + 1
+
+
 @scalar
-def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, cur, R, inside):
-    """Nodes ``c0..c1`` of row ``ib`` of layer ``k`` of a sweep along axis 0 of the permuted arrays
-    (:func:`sweep_rows`). ``R`` (≥ 2·jump + 4, nc + 1) is this row's scratch: rows 0..nstep the
-    samples' (a, b) interpolation (column nc repeats nc − 1, so a sample on the last node needs no
-    clamp), the last row the nodes' march sums; ``inside``: a point light inside the box."""
+def row_run(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, ca, cb, nstep, f, out, cur, R):
+    """Nodes ``ca..cb`` of a row (:func:`sweep_row`) whose marches take ``nstep`` steps (so their
+    samples ``n`` share the position along the sweep axis and ``b``): ``R[n, c]`` is sample ``n``'s
+    bilinear interpolation in that plane at column ``c``, built once for the run along the
+    contiguous axis; each node interpolates it linearly at its own column and sums
+    :func:`.lightvol.march_tau`'s trapezoid; the layer ``J`` back, the path lengths and the
+    writes as :func:`.lightvol.node_tau` and :func:`.lightvol.sweep_node` do them."""
     na, nb, nc = sig.shape
     x = float(k)
     y = float(ib)
     v0 = l0 - x if is_point else l0
     v1 = l1 - y if is_point else l1
     va = abs(v0)
-    # (a point light outside the box: its path lengths need the ray/box clipping of node_tau)
-    fast = J > 0 and not (is_point and (va <= J + TIE or not inside))
-    f = 0.0
-    pb = 0.0
-    nstep = 0
-    if fast:
-        f = J / va
-        pb = y + v1 * f
-        fast = not (pb < -TIE or pb > nb - 1 + TIE)
-    if fast:
-        # the march's step count of node_tau (march_tau) for the nodes whose |v_c| does not exceed
-        # the row's largest component; a directional light's v is the same for every node
-        vrow = max(va, abs(v1)) if is_point else max(va, abs(v1), abs(l2))
-        nstep = int(math.ceil(2.0 * f * vrow - TIE)) + 1
-        fast = nstep + 2 <= R.shape[0]
-    if not fast:
-        for ic in range(c0, c1 + 1):
-            tau, ln = node_tau(sig, B, is_point, l0, l1, l2, 0, k, J, prev, ib, ic)
-            write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur)
-        return
+    pb = y + v1 * f
     dt = f / nstep
-    # the c range the row's samples read (between a node and its landing point on the layer J back)
-    if is_point:
-        rlo = max(0, int(math.floor(min(float(c0), l2))) - 1)
-        rhi = min(nc - 1, int(math.floor(min(max(float(c1), l2), nc + 1.0))) + 2)
-    else:
-        rlo = max(0, int(math.floor(c0 + min(0.0, f * l2))) - 1)
-        rhi = min(nc - 1, int(math.floor(min(c1 + max(0.0, f * l2), nc + 1.0))) + 2)
+    # the columns the run's samples read: between a node and its landing point on the layer J back
+    # (which moves with the node: x_c + f·v_c is increasing in x_c)
+    lo = min(ca + f * ((l2 - ca) if is_point else l2), float(ca))
+    hi = max(cb + f * ((l2 - cb) if is_point else l2), float(cb))
+    rlo = max(0, int(math.floor(max(lo, -1.0))) - 1)
+    rhi = min(nc - 1, int(math.floor(min(hi, nc + 1.0))) + 2)
     for n in range(nstep + 1):
         t = n * dt if n < nstep else f
         ia, fa = lerp_coord(x + t * v0, na)
@@ -134,17 +123,17 @@ def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, c
             e1 = s01[c] + fa * (s11[c] - s01[c])
             Rn[c] = e0 + fb * (e1 - e0)
         Rn[nc] = Rn[nc - 1]
-    # march_tau's trapezoid for every node of the row at once (sample n outer: a loop along c)
+    # march_tau's trapezoid for every node of the run at once (sample n outer: a loop along c)
     acc = R[R.shape[0] - 1]
     top = nc - 1.0
-    for c in range(c0, c1 + 1):
+    for c in range(ca, cb + 1):
         acc[c] = 0.0
     for n in range(nstep + 1):
         t = n * dt if n < nstep else f
         wgt = 0.5 if (n == 0 or n == nstep) else 1.0
         Rn = R[n]
         if is_point:
-            for c in range(c0, c1 + 1):
+            for c in range(ca, cb + 1):
                 w = min(max(c + t * (l2 - c), 0.0), top)
                 j = int(w)
                 acc[c] += wgt * (Rn[j] + (w - j) * (Rn[j + 1] - Rn[j]))
@@ -154,11 +143,11 @@ def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, c
             off = t * l2
             o = int(math.floor(off))
             fo = off - o
-            m0 = max(c0, -o)
-            m1 = min(c1, nc - 1 - o)
+            m0 = max(ca, -o)
+            m1 = min(cb, nc - 1 - o)
             if fo > 0.0:
                 m1 = min(m1, nc - 2 - o)
-            for c in range(c0, c1 + 1):
+            for c in range(ca, cb + 1):
                 if c < m0 or c > m1:
                     w = min(max(c + off, 0.0), top)
                     j = int(w)
@@ -167,17 +156,15 @@ def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, c
             w1 = wgt * fo
             for c in range(m0, m1 + 1):
                 acc[c] += w0 * Rn[c + o] + w1 * Rn[c + o + 1]
-    # the layer J back's b coordinate, shared by the row (the bilinear interpolation of
-    # lightvol._bilerp_layer, clamped alike)
+    # the layer J back's b coordinate, shared by the row (lightvol._bilerp_layer, clamped alike)
     ub, fub = lerp_coord(pb, nb)
     pq0 = prev[ub]
     pq1 = prev[ub + 1]
-    for ic in range(c0, c1 + 1):
+    for ic in range(ca, cb + 1):
         z = float(ic)
         v2 = l2 - z if is_point else l2
         pc = z + v2 * f
-        vmax = max(va, abs(v1), abs(v2))
-        if pc < -TIE or pc > nc - 1 + TIE or (is_point and int(math.ceil(2.0 * f * vmax - TIE)) + 1 != nstep):
+        if pc < -TIE or pc > nc - 1 + TIE:  # leaves the box before the layer J back
             tau, ln = node_tau(sig, B, is_point, l0, l1, l2, 0, k, J, prev, ib, ic)
             write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur)
             continue
@@ -196,6 +183,47 @@ def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, c
             lp = max(te - f, 0.0) * wl
         tau = q * lp + acc[ic] * (wl * dt)
         write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur)
+
+
+@scalar
+def sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, cur, R, inside):
+    """Nodes ``c0..c1`` of row ``ib`` of layer ``k`` of a sweep along axis 0 of the permuted arrays
+    (:func:`sweep_rows`), in runs of equal march step count (:func:`row_run`; a directional
+    light's are all equal, a point light's grow away from the light on the reach pyramid's
+    margins). ``R`` (≥ 4·jump + 4, nc + 1) is the row's scratch: rows 0..nstep the samples' (a, b)
+    interpolation (column nc repeats nc − 1, so a sample on the last node needs no clamp), the last
+    row the nodes' march sums; ``inside``: a point light inside the box. Nodes that see the light
+    within reach, the first layer, a row whose landing row leaves the box and a point light outside
+    the box (its path lengths need node_tau's ray/box clipping) take :func:`.lightvol.node_tau`."""
+    nb = sig.shape[1]
+    x = float(k)
+    y = float(ib)
+    v0 = l0 - x if is_point else l0
+    v1 = l1 - y if is_point else l1
+    va = abs(v0)
+    fast = J > 0 and not (is_point and (va <= J + TIE or not inside))
+    f = J / va if fast else 0.0
+    if fast:
+        pb = y + v1 * f
+        fast = not (pb < -TIE or pb > nb - 1 + TIE)
+    if not fast:
+        for ic in range(c0, c1 + 1):
+            tau, ln = node_tau(sig, B, is_point, l0, l1, l2, 0, k, J, prev, ib, ic)
+            write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur)
+        return
+    ca = c0
+    while ca <= c1:
+        ns = node_steps(f, va, v1, (l2 - ca) if is_point else l2)
+        cb = ca
+        while cb < c1 and node_steps(f, va, v1, (l2 - cb - 1) if is_point else l2) == ns:
+            cb += 1
+        if ns + 2 <= R.shape[0]:
+            row_run(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, ca, cb, ns, f, out, cur, R)
+        else:
+            for ic in range(ca, cb + 1):
+                tau, ln = node_tau(sig, B, is_point, l0, l1, l2, 0, k, J, prev, ib, ic)
+                write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur)
+        ca = cb + 1
 
 
 def chunks() -> int:
@@ -217,7 +245,7 @@ def sweep_rows(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach,
     core, each wait lasting until the descheduled thread runs again) cost more than the layer.
     ``hist`` (≥ 2·jump slots, nb, nc) float64 is the ring of the layers' path-mean extinction
     (:func:`.lightvol.sweep_tau`'s, with room for a group being written while the one before it is
-    read); ``reach`` as there. ``scratch`` (chunks, ≥ 2·jump + 4, nc + 1) float64: one
+    read); ``reach`` as there. ``scratch`` (chunks, ≥ 4·jump + 4, nc + 1) float64: one
     :func:`sweep_row` scratch per chunk of a region's rows (:func:`chunks`: one per thread)."""
     na = sig.shape[0]
     nb = hist.shape[1]
@@ -247,8 +275,8 @@ def sweep_rows(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach,
 
 @scalar
 def sweep_serial(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach, rows, inside):
-    """:func:`sweep_rows` on one thread (a layer's rows in order): one of the sweeps that
-    :func:`sweep_rows_each` runs side by side."""
+    """:func:`sweep_rows` on one thread (a layer's rows in order, ``rows`` the one
+    :func:`sweep_row` scratch): one of the sweeps that :func:`sweep_rows_each` runs side by side."""
     na = sig.shape[0]
     nb = hist.shape[1]
     nc = hist.shape[2]
@@ -262,7 +290,7 @@ def sweep_serial(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reac
         b0, b1 = lateral_range(nb, l1, reach[k])
         c0, c1 = lateral_range(nc, l2, reach[k])
         for ib in range(b0, b1 + 1):
-            sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, cur, rows[ib], inside)
+            sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, cur, rows, inside)
         done_layers += 1
         k += sign
 
@@ -275,7 +303,7 @@ def sweep_rows_each(sigs, Bs, ls, outs, axes, signs, jump, hists, reaches, rows,
     at each of its layers, which under load (another process holding a core) costs more than the
     sweep. ``sigs``, ``outs``, ``Bs``: per grid axis, the permuted σt, result and ``B``; ``ls[a]``
     the light in axis ``a``'s permuted order; sweep ``i`` runs along ``axes[i]`` in direction
-    ``signs[i]`` with ``hists[i]``, ``reaches[i]``, ``rows[i]``."""
+    ``signs[i]`` with ``hists[i]``, ``reaches[i]`` and the scratch ``rows[i]`` (≥ 4·jump + 4, nc + 1)."""
     for i in prange(len(axes)):
         a = axes[i]
         sweep_serial(sigs[a], Bs[a], True, ls[a, 0], ls[a, 1], ls[a, 2], a, signs[i], jump, outs[a], hists[i],

@@ -190,7 +190,7 @@ def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
         lat = sig_p[a].shape[1:]
         hist = np.zeros((slots,) + lat)
         reach = sweep_reach(shape[a], l_p[a][0], s, jump) if is_point else np.full(shape[a], np.inf)
-        return hist, reach, np.empty((lat[0], 2 * jump + 4, lat[1] + 1))
+        return hist, reach, np.empty((4 * jump + 4, lat[1] + 1))
 
     if is_point and axes == [0, 1, 2]:
         hists, reaches, rows = zip(*[scratch(a, s, jump + 1) for a, s in sweeps])
@@ -201,7 +201,7 @@ def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
         for a, s in sweeps:
             hist, reach, _ = scratch(a, s, max(2 * jump, jump + 1))
             lp = l_p[a]
-            rows = np.empty((chunks(), 2 * jump + 4, sig_p[a].shape[2] + 1))
+            rows = np.empty((chunks(), 4 * jump + 4, sig_p[a].shape[2] + 1))
             sweep_rows(sig_p[a], B_p[a], is_point, lp[0], lp[1], lp[2], a, s, jump, out_p[a], hist, reach, inside, rows)
     for a in axes:
         if a != 0:
