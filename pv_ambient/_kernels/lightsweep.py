@@ -1,4 +1,4 @@
-"""The CPU driver of the optical-depth sweep, row by row (:func:`sweep_rows`).
+"""The CPU drivers of the optical-depth sweep, row by row (:func:`sweep_rows`, :func:`sweep_rows_each`).
 
 It computes what :func:`.lightvol.sweep_tau` computes — the same characteristics, the same
 trapezoid samples of σt, the same bilinear interpolation of the layer ``J`` back, the same TIE
@@ -11,19 +11,28 @@ whose inner loop runs along memory:
   processed row by row (``ib``), the row's nodes (``ic``) contiguous in memory. Why: a sweep along
   the last axis wrote its layers with a stride of a whole row of the volume, and every node's
   samples touched other cache lines.
-* **What a row shares, once per row.** On a row (layer ``k``, lateral ``ib``) every node's
-  characteristic toward the light has the same component along the sweep axis and along ``b``
-  (a point light: ``l − x`` with the same ``x_a``, ``x_b``; a directional light: all of ``v``),
-  so sample ``n`` of the march, ``x + t_n·v``, lies for all of them at the same position along
-  those two axes: its bilinear interpolation in the (a, b) plane is done once for the whole row
-  (``R[n, c]``, a vectorised pass over the contiguous axis), and each node only interpolates
-  ``R[n]`` linearly along ``c``. Equally the march's step count, the layer ``J`` back's ``b``
-  coordinate and, for a point light inside the box, the path lengths (no ray/box clipping: the
-  segment to the light lies inside the box) are per row or per node closed forms.
-* **Every other node by the per-node rule.** Nodes whose characteristic leaves the box before the
-  layer ``J`` back, that see the light within reach, the first ``jump`` layers, and nodes off a
-  point light's dominant pyramid whose march takes more steps than the row's, are computed by
-  :func:`.lightvol.node_tau` itself (on the permuted arrays, as a sweep along axis 0).
+* **What a run of a row shares, once per run.** On a row (layer ``k``, lateral ``ib``) every
+  node's characteristic toward the light has the same component along the sweep axis and along
+  ``b`` (a point light: ``l − x`` with the same ``x_a``, ``x_b``; a directional light: all of
+  ``v``). Where the nodes' marches also take the same number of steps (a run: all of a
+  directional light's row; a point light's nodes within its dominant pyramid, and steps of a few
+  nodes on the pyramid's margins, whose marches are longer), sample ``n`` of the march,
+  ``x + t_n·v``, lies for all of them at the same position along those two axes: its bilinear
+  interpolation in the (a, b) plane is done once for the run (``R[n, c]``, a vectorised pass over
+  the contiguous axis), and each node only interpolates ``R[n]`` linearly along ``c`` (a
+  directional light: at a fixed offset, a two-tap stencil). Equally the layer ``J`` back's ``b``
+  coordinate is one per row, and the path lengths are closed forms (a point light inside the box:
+  the segment to it lies inside the box; a directional light: the exit along each axis) instead of
+  ray/box clippings.
+* **The rest by the per-node rule.** The first layer, nodes that see the light within reach,
+  nodes whose characteristic leaves the box before the layer ``J`` back and every node of a point
+  light outside the box are computed by :func:`.lightvol.node_tau` itself (on the permuted arrays,
+  as a sweep along axis 0): the ray/box clipping is theirs.
+* **Fewer waits between threads.** A point light's sweeps are independent: they run side by side,
+  each on one thread (:func:`sweep_rows_each`). A directional light's single sweep runs ``jump``
+  layers per parallel region (:func:`sweep_rows`), since a layer reads only the layer ``jump``
+  back. Why: a region per layer makes every thread wait for the slowest at each layer, and on a
+  machine where another process holds a core that wait lasts a time slice.
 
 The GPU keeps the per-node kernel (:func:`.lightvol.sweep_node`): one thread per node has no row
 to share, and both compute the same values (tests/stages/test_propagation.py).
@@ -36,7 +45,7 @@ import math
 import numba
 
 from ._jit import driver, prange, scalar
-from .lightvol import TIE, dominant_axis, lateral_range, node_tau, path_length, sweep_start, wlen
+from .lightvol import TIE, dominant_axis, lateral_range, node_tau, sweep_start, wlen
 
 
 @scalar(force_inline=True)
