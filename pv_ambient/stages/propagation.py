@@ -107,9 +107,9 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP, device_cac
     :class:`pv_ambient.backend.DeviceCache` the sweeps run on the GPU (the per-node kernel,
     :func:`pv_ambient._kernels.lightvol.sweep_node`) and the result also stays there. On the CPU
     ``driver="rows"`` (the default) runs the row driver (:mod:`pv_ambient._kernels.lightsweep`:
-    the same rule, 4–8× faster on a 256³ grid, docs/performance.rst "Relight"), ``"nodes"`` the
-    per-node driver :func:`pv_ambient._kernels.lightvol.sweep_tau` (the reference the tests compare
-    it with).
+    the same rule, 2–4× faster on a 256³ grid, docs/performance.rst "Relight: the light sweep"),
+    ``"nodes"`` the per-node driver :func:`pv_ambient._kernels.lightvol.sweep_tau` (the reference
+    the tests compare it with).
     """
     from .._kernels.lightvol import sweep_tau
 
@@ -178,7 +178,7 @@ def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
     sig_p, out_p = {}, {}
     for a in axes:
         if a == 0:
-            sig_p[a], out_p[a] = sig_l, out
+            sig_p[a], out_p[a] = np.ascontiguousarray(sig_l), out  # one array type for the kernels' tuples
         else:
             sig_p[a] = np.empty(tuple(shape[i] for i in order[a]), sig_l.dtype)
             permute(np.ascontiguousarray(sig_l), a, sig_p[a])
