@@ -221,3 +221,25 @@ def test_driver_is_checked():
     grid = make_light_grid(vol.geometry, 1.0)
     with pytest.raises(ValueError, match="driver"):
         optical_depth(sigma_on_grid(optics, grid), grid, vol.geometry, PointLight((0.5, 0.5, 0.5)), driver="fast")
+
+
+@pytest.mark.parametrize("jump", [0, 1, 2, 7])
+@pytest.mark.parametrize("shape", [(23, 19, 17), (9, 2, 13)])
+@pytest.mark.parametrize("light", [PointLight((0.4, 0.6, 0.3)), PointLight((1.3, 0.5, -0.2)),
+                                   DirectionalLight(np.array((0.2, 0.9, -0.4)) / np.linalg.norm((0.2, 0.9, -0.4))),
+                                   DirectionalLight((0.0, 0.0, 1.0))])
+def test_row_driver_equals_node_driver_for_any_jump_and_thin_grids(light, shape, jump):
+    """The row driver's grouping of layers (a layer reads the layer ``jump`` back) and its runs hold
+    for every ``jump``, and on a grid two nodes thick."""
+    from pv_ambient.inputs.transfer import _grid_optics
+
+    field = np.random.default_rng(7).random(shape).astype(np.float32) * 2.0
+    vol = Volume(field, spacing=(0.05, 0.07, 0.04))
+    optics = _grid_optics(field, np.zeros(field.shape + (6,), np.float32))
+    grid = make_light_grid(vol.geometry, 1.0)
+    sig = sigma_on_grid(optics, grid)
+    lt = PointLight(tuple(np.array(light.position) * np.array(vol.geometry.box_hi - vol.geometry.box_lo)
+                          + vol.geometry.box_lo)) if isinstance(light, PointLight) else light
+    rows = optical_depth(sig, grid, vol.geometry, lt, jump=jump, driver="rows")
+    nodes = optical_depth(sig, grid, vol.geometry, lt, jump=jump, driver="nodes")
+    assert np.max(np.abs(rows - nodes)) <= ROWS_VS_NODES * np.max(np.abs(nodes))
