@@ -128,11 +128,11 @@ def _node(a, k, b, c, ib, ic):
 
 
 @scalar(force_inline=True)
-def sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur):
-    """Node (ib, ic) of layer ``k`` of a sweep along axis ``a`` (:func:`sweep_tau`): writes its
-    optical depth to ``out`` (point light: only if ``a`` is the node's dominant axis) and its
-    path-mean extinction to ``cur`` (this layer's slot of the history ring); ``prev`` is the
-    layer ``J`` layers back."""
+def node_tau(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic):
+    """Optical depth ``τ`` and in-box path length ``ℓ`` toward the light of node (ib, ic) of layer
+    ``k`` of a sweep along axis ``a`` (:func:`sweep_tau`); ``prev`` is the layer ``J`` layers back
+    (path-mean extinction). The rule of every sweep driver: :func:`sweep_node` (this one's and the
+    GPU's) and :mod:`.lightsweep` (the CPU's row driver, which computes the same samples row by row)."""
     shape = sig.shape
     b = 1 if a == 0 else 0
     c = 2 if a != 2 else 1
@@ -171,20 +171,36 @@ def sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur):
             lp = path_length(shape, B, qx, qy, qz, vx, vy, vz, is_point, 1.0 - f)
             tau = _bilerp_layer(prev, pb, pc) * lp + march_tau(sig, B, x, y, z, vx, vy, vz, f)
     ln = path_length(shape, B, x, y, z, vx, vy, vz, is_point, 1.0)
+    return tau, ln
+
+
+@scalar(force_inline=True)
+def dominant_axis(ax, ay, az):
+    """The axis of a point light's sweep that writes a node at distances (ax, ay, az) from the light
+    along the axes: the first of the largest. Ties (nodes on a diagonal through the light) go to
+    the first axis; TIE keeps rounding of the light's position from choosing (scale invariance)."""
+    dom = 0
+    if ay > ax + TIE:
+        dom = 1
+    if az > max(ax, ay) + TIE:
+        dom = 2
+    return dom
+
+
+@scalar(force_inline=True)
+def sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur):
+    """Node (ib, ic) of layer ``k`` of a sweep along axis ``a`` (:func:`sweep_tau`): writes its
+    optical depth (:func:`node_tau`) to ``out`` (point light: only if ``a`` is the node's dominant
+    axis) and its path-mean extinction to ``cur`` (this layer's slot of the history ring); ``prev``
+    is the layer ``J`` layers back."""
+    b = 1 if a == 0 else 0
+    c = 2 if a != 2 else 1
+    x, y, z = _node(a, k, b, c, ib, ic)
+    tau, ln = node_tau(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic)
     cur[ib, ic] = tau / ln if ln > 0.0 else sig[int(x), int(y), int(z)]
     write = True
     if is_point:
-        ax = abs(lx - x)
-        ay = abs(ly - y)
-        az = abs(lz - z)
-        # ties (nodes on a diagonal through the light) go to the first axis; TIE keeps
-        # rounding of the light's position from choosing (scale invariance)
-        dom = 0
-        if ay > ax + TIE:
-            dom = 1
-        if az > max(ax, ay) + TIE:
-            dom = 2
-        write = dom == a
+        write = dominant_axis(abs(lx - x), abs(ly - y), abs(lz - z)) == a
     if write:
         if a == 0:
             out[k, ib, ic] = tau
