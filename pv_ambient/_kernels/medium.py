@@ -89,9 +89,9 @@ def corners32(nx, ny, nz, x, y, z):
     i0 = min_index(np.uint32(x), np.uint32(nx - 2))
     j0 = min_index(np.uint32(y), np.uint32(ny - 2))
     k0 = min_index(np.uint32(z), np.uint32(nz - 2))
-    return (i0, min_index(i0 + np.uint32(1), np.uint32(nx - 1)), x - np.float32(i0),
-            j0, min_index(j0 + np.uint32(1), np.uint32(ny - 1)), y - np.float32(j0),
-            k0, min_index(k0 + np.uint32(1), np.uint32(nz - 1)), z - np.float32(k0))
+    return (i0, min_index(np.uint32(i0 + np.uint32(1)), np.uint32(nx - 1)), x - np.float32(i0),
+            j0, min_index(np.uint32(j0 + np.uint32(1)), np.uint32(ny - 1)), y - np.float32(j0),
+            k0, min_index(np.uint32(k0 + np.uint32(1)), np.uint32(nz - 1)), z - np.float32(k0))
 
 
 @scalar(inline=True)

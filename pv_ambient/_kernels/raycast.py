@@ -28,8 +28,8 @@ from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .baked import baked_light, diffusion_baked, diffusion_layout
-from .medium import (MODE_GRID, MODE_LUT, full_segment, lut_coords, lut_value, step_albedo_emission, step_column,
-                     step_lookup, step_opacity)
+from .medium import (MODE_GRID, MODE_LUT, corner32, corners32, full_segment, lut_coords, lut_value, step_albedo_emission, step_column,
+                     step_lookup, step_opacity, trilinear32)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
                      SINGLE_SCATTERING)
 from .phase import phase_eval
@@ -68,9 +68,10 @@ def medium_sigma(mode, medium, x, y, z):
     from which :func:`medium_optics` classifies the rest. Why not the located table entries (k0, k1, f):
     the march holds one value, not three, across a lit model's loop over the lights, and a GPU thread's
     registers are what that loop is short of."""
-    s = trilinear(medium.field, x, y, z)
     if mode == MODE_GRID:
+        s = np.float64(trilinear32(medium.field, x, y, z))
         return s, s
+    s = trilinear(medium.field, x, y, z)
     k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, medium.table.shape[0])
     return lut_value(medium.table, k0, k1, f, 0), s
 
@@ -83,8 +84,12 @@ def medium_optics(mode, medium, s, x, y, z):
     the colour (table columns 7–9). What a caller leaves unused is not computed (inlined)."""
     if mode == MODE_GRID:
         aux = medium.aux
-        er, eg, eb = trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5)
-        return (er, eg, eb, trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
+        i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(aux.shape[0], aux.shape[1], aux.shape[2], x, y, z)
+        er = corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3)
+        eg = corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 4)
+        eb = corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 5)
+        return (er, eg, eb, corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 0),
+                corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 1), corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 2),
                 er, eg, eb)
     table = medium.table
     k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, table.shape[0])
