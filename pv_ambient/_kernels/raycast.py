@@ -68,10 +68,9 @@ def medium_sigma(mode, medium, x, y, z):
     from which :func:`medium_optics` classifies the rest. Why not the located table entries (k0, k1, f):
     the march holds one value, not three, across a lit model's loop over the lights, and a GPU thread's
     registers are what that loop is short of."""
+    s = np.float64(trilinear32(medium.field, x, y, z))
     if mode == MODE_GRID:
-        s = np.float64(trilinear32(medium.field, x, y, z))
         return s, s
-    s = trilinear(medium.field, x, y, z)
     k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, medium.table.shape[0])
     return lut_value(medium.table, k0, k1, f, 0), s
 
@@ -114,8 +113,8 @@ def light_at(l, lights, wx, wy, wz):
             vx, vy, vz, inv = 0.0, 0.0, 1.0, 1.0
         # Clamp d² at d2min: no sample resolves the 1/d² singularity at the light
         # (docs/conventions.rst, "Lights").
-        d2 = max(d2, d2min)
-        return lpow[l, 0] / d2, lpow[l, 1] / d2, lpow[l, 2] / d2, vx * inv, vy * inv, vz * inv
+        w = 1.0 / max(d2, d2min)
+        return lpow[l, 0] * w, lpow[l, 1] * w, lpow[l, 2] * w, vx * inv, vy * inv, vz * inv
     return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
 
 
@@ -309,18 +308,18 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components; or
     (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights); or, for an
     isotropic phase function (g = 0: the flux term vanishes), φ alone: (nx, ny, nz, 3) or (…, 1)."""
-    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(diff, x, y, z)
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(diff.shape[0], diff.shape[1], diff.shape[2], x, y, z)
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
     per, nch = diffusion_layout(diff.shape[3])
     for c in range(nch):
         q = per * c
-        v = corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
+        v = corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
         if g != 0.0 and per == 4:  # the flux term (none in an isotropic phase function's radiance)
-            v -= 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
-                            + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
-                            + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz)
+            v -= 3.0 * g * (corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
+                            + corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
+                            + corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz)
         v = max(v, 0.0) * INV_4PI_RC
         if c == 0:
             out0 = v
