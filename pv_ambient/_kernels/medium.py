@@ -79,10 +79,9 @@ def min_index(a, b):
 @scalar(inline=True)
 def upper_corner(i0, hi):
     """``min(i0 + 1, hi)`` of an unsigned corner index ``i0`` and a grid's last index ``hi`` (float32,
-    as :func:`corners32` holds it), computed in float32 (exact below 2²⁴): a CUDA thread then holds one
-    value per axis and grid across its sample loop, the float32 last index, and no integer copies of it."""
-    u = np.float32(i0) + np.float32(1.0)
-    return np.uint32(u if u < hi else hi)
+    as :func:`corners32` holds it; the comparison is exact below 2²⁴): a CUDA thread then holds one value
+    per axis and grid across its sample loop, the float32 last index, and no integer copies of it."""
+    return np.uint32(i0 + np.uint32(1)) if np.float32(i0) < hi else i0
 
 
 @scalar(inline=True)
