@@ -67,9 +67,7 @@ def medium_sigma(mode, medium, x, y, z):
     :func:`medium_albedo_emission`): the extinction and the interpolated scalar (σt itself in GRID mode),
     from which :func:`medium_optics` classifies the rest. Why not the located table entries (k0, k1, f):
     the march holds one value, not three, across a lit model's loop over the lights, and a GPU thread's
-    registers are what that loop is short of. The field is read as the table TF's sample reads it
-    (:func:`.medium.trilinear32`: float32, 32-bit indices, one float32 bound per axis), so a CUDA thread
-    holds no 64-bit corner indices."""
+    registers are what that loop is short of. The field is read in float32 (:func:`.medium.trilinear32`)."""
     s = np.float64(trilinear32(medium.field, x, y, z))
     if mode == MODE_GRID:
         return s, s
@@ -82,8 +80,7 @@ def medium_optics(mode, medium, s, x, y, z):
     """(colour rgb, albedo rgb, emission rgb) at the point where :func:`medium_sigma` gave the scalar
     ``s``: the table entries located again from ``s`` (LUT mode) or ``aux`` interpolated at (x, y, z)
     (GRID mode, where the colour is the emission) — the values of :func:`medium_albedo_emission`, and
-    the colour (table columns 7–9). What a caller leaves unused is not computed (inlined). GRID mode
-    reads ``aux`` as :func:`.medium.corner32` (float32, the corners located once for its six columns)."""
+    the colour (table columns 7–9); ``aux`` in float32. What a caller leaves unused is not computed (inlined)."""
     if mode == MODE_GRID:
         aux = medium.aux
         i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(aux.shape[0], aux.shape[1], aux.shape[2], x, y, z)
@@ -115,8 +112,7 @@ def light_at(l, lights, wx, wy, wz):
         else:
             vx, vy, vz, inv = 0.0, 0.0, 1.0, 1.0
         # Clamp d² at d2min: no sample resolves the 1/d² singularity at the light
-        # (docs/conventions.rst, "Lights"). One reciprocal for the three channels: each float64
-        # division is a slow path a GPU thread inlines, with its registers, in the loop over lights.
+        # (docs/conventions.rst, "Lights"). One reciprocal: a float64 division inlines a slow path.
         w = 1.0 / max(d2, d2min)
         return lpow[l, 0] * w, lpow[l, 1] * w, lpow[l, 2] * w, vx * inv, vy * inv, vz * inv
     return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
@@ -312,7 +308,7 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components; or
     (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights); or, for an
     isotropic phase function (g = 0: the flux term vanishes), φ alone: (nx, ny, nz, 3) or (…, 1).
-    Read as :func:`.baked.diffusion_baked` reads it (:func:`.medium.corners32`, float32)."""
+    Read in float32, as :func:`.baked.diffusion_baked` (:func:`.medium.corners32`)."""
     i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(diff.shape[0], diff.shape[1], diff.shape[2], x, y, z)
     out0 = 0.0
     out1 = 0.0
@@ -470,7 +466,6 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                 if model == EMISSION_ABSORPTION:
                     sr, sg, sb, _, _, _, _, _, _ = medium_optics(mode, medium, s, x, y, z)
                 elif model == AMBIENT_OCCLUSION:
-                    # the ball's mean σ̄ read in float32 (:func:`.medium.trilinear32_c`), as the field
                     occ = amb * math.exp(-radius * trilinear32_c(ball, x, y, z, 0))
                     cr, cg, cb, ar, ag, ab, _, _, _ = medium_optics(mode, medium, s, x, y, z)
                     sr = cr + ar * occ
