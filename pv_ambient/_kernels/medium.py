@@ -77,21 +77,32 @@ def min_index(a, b):
 
 
 @scalar(inline=True)
+def upper_corner(i0, hi):
+    """``min(i0 + 1, hi)`` of an unsigned corner index ``i0`` and a grid's last index ``hi`` (float32,
+    as :func:`corners32` holds it; the comparison is exact below 2²⁴): a CUDA thread then holds one value
+    per axis and grid across its sample loop, the float32 last index, and no integer copies of it."""
+    return np.uint32(i0 + np.uint32(1)) if np.float32(i0) < hi else i0
+
+
+@scalar(inline=True)
 def corners32(nx, ny, nz, x, y, z):
     """Corners and fractions of index-space point (x, y, z) on an (nx, ny, nz) grid, float32 and
     unsigned 32-bit (:func:`trilinear32`; a CUDA thread then holds an index in one register).
-    Positions outside [0, n−1] are clamped as by :func:`.interp.cell_coords`; the lower corner is at most n − 2, so a fraction is in [0, 1] (1 at
-    the last sample); n − 2 of a one-sample axis wraps to the largest uint32 and the upper corner is
-    clamped to n − 1, so such an axis reads its sample twice."""
-    x = clamp32(np.float32(x), np.float32(nx - 1))
-    y = clamp32(np.float32(y), np.float32(ny - 1))
-    z = clamp32(np.float32(z), np.float32(nz - 1))
-    i0 = min_index(np.uint32(x), np.uint32(nx - 2))
-    j0 = min_index(np.uint32(y), np.uint32(ny - 2))
-    k0 = min_index(np.uint32(z), np.uint32(nz - 2))
-    return (i0, min_index(i0 + np.uint32(1), np.uint32(nx - 1)), x - np.float32(i0),
-            j0, min_index(j0 + np.uint32(1), np.uint32(ny - 1)), y - np.float32(j0),
-            k0, min_index(k0 + np.uint32(1), np.uint32(nz - 1)), z - np.float32(k0))
+    Positions outside [0, n−1] are clamped as by :func:`.interp.cell_coords`. The lower corner is the
+    integer part of the clamped position, the upper one the next sample or, at the last sample, the
+    last sample again (fraction 0 there, so the last sample's value exactly). Every bound comes from
+    one float32 ``n − 1`` per axis (:func:`upper_corner`): the only value per axis and grid that a
+    CUDA thread holds across its sample loop."""
+    hx, hy, hz = np.float32(nx - 1), np.float32(ny - 1), np.float32(nz - 1)
+    x = clamp32(np.float32(x), hx)
+    y = clamp32(np.float32(y), hy)
+    z = clamp32(np.float32(z), hz)
+    i0 = np.uint32(x)
+    j0 = np.uint32(y)
+    k0 = np.uint32(z)
+    return (i0, upper_corner(i0, hx), x - np.float32(i0),
+            j0, upper_corner(j0, hy), y - np.float32(j0),
+            k0, upper_corner(k0, hz), z - np.float32(k0))
 
 
 @scalar(inline=True)

@@ -25,11 +25,11 @@ import numpy as np
 
 from ._jit import driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
-from .interp import corner_lerp, locate, trilinear, trilinear4, trilinear_c
+from .interp import corner_lerp, locate, trilinear4, trilinear_c
 from .majorant import block_at, block_span
 from .baked import baked_light, diffusion_baked, diffusion_layout
-from .medium import (MODE_GRID, MODE_LUT, full_segment, lut_coords, lut_value, step_albedo_emission, step_column,
-                     step_lookup, step_opacity)
+from .medium import (MODE_GRID, MODE_LUT, corner32, corners32, full_segment, lut_coords, lut_value,
+                     step_albedo_emission, step_column, step_lookup, step_opacity, trilinear32, trilinear32_c)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS,
                      SINGLE_SCATTERING)
 from .phase import phase_eval
@@ -67,8 +67,8 @@ def medium_sigma(mode, medium, x, y, z):
     :func:`medium_albedo_emission`): the extinction and the interpolated scalar (σt itself in GRID mode),
     from which :func:`medium_optics` classifies the rest. Why not the located table entries (k0, k1, f):
     the march holds one value, not three, across a lit model's loop over the lights, and a GPU thread's
-    registers are what that loop is short of."""
-    s = trilinear(medium.field, x, y, z)
+    registers are what that loop is short of. The field is read in float32 (:func:`.medium.trilinear32`)."""
+    s = np.float64(trilinear32(medium.field, x, y, z))
     if mode == MODE_GRID:
         return s, s
     k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, medium.table.shape[0])
@@ -80,11 +80,15 @@ def medium_optics(mode, medium, s, x, y, z):
     """(colour rgb, albedo rgb, emission rgb) at the point where :func:`medium_sigma` gave the scalar
     ``s``: the table entries located again from ``s`` (LUT mode) or ``aux`` interpolated at (x, y, z)
     (GRID mode, where the colour is the emission) — the values of :func:`medium_albedo_emission`, and
-    the colour (table columns 7–9). What a caller leaves unused is not computed (inlined)."""
+    the colour (table columns 7–9); ``aux`` in float32. What a caller leaves unused is not computed (inlined)."""
     if mode == MODE_GRID:
         aux = medium.aux
-        er, eg, eb = trilinear_c(aux, x, y, z, 3), trilinear_c(aux, x, y, z, 4), trilinear_c(aux, x, y, z, 5)
-        return (er, eg, eb, trilinear_c(aux, x, y, z, 0), trilinear_c(aux, x, y, z, 1), trilinear_c(aux, x, y, z, 2),
+        i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(aux.shape[0], aux.shape[1], aux.shape[2], x, y, z)
+        er = corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3)
+        eg = corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 4)
+        eb = corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 5)
+        return (er, eg, eb, corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 0),
+                corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 1), corner32(aux, i0, i1, fx, j0, j1, fy, k0, k1, fz, 2),
                 er, eg, eb)
     table = medium.table
     k0, k1, f = lut_coords(s, medium.lut_lo, medium.lut_inv, table.shape[0])
@@ -108,9 +112,9 @@ def light_at(l, lights, wx, wy, wz):
         else:
             vx, vy, vz, inv = 0.0, 0.0, 1.0, 1.0
         # Clamp d² at d2min: no sample resolves the 1/d² singularity at the light
-        # (docs/conventions.rst, "Lights").
-        d2 = max(d2, d2min)
-        return lpow[l, 0] / d2, lpow[l, 1] / d2, lpow[l, 2] / d2, vx * inv, vy * inv, vz * inv
+        # (docs/conventions.rst, "Lights"). One reciprocal: a float64 division inlines a slow path.
+        w = 1.0 / max(d2, d2min)
+        return lpow[l, 0] * w, lpow[l, 1] * w, lpow[l, 2] * w, vx * inv, vy * inv, vz * inv
     return lpow[l, 0], lpow[l, 1], lpow[l, 2], lvec[l, 0], lvec[l, 1], lvec[l, 2]
 
 
@@ -231,19 +235,20 @@ def diffusion_light(diff, x, y, z, dx, dy, dz, g):
     light from the diffusion solve (docs/diffusion.rst), ω_o = −d toward the camera. ``diff`` is
     (nx, ny, nz, 12): (φ, Fx, Fy, Fz) per channel at the data samples, F in world components; or
     (nx, ny, nz, 4) when the three channels are equal (grey albedo and white lights); or, for an
-    isotropic phase function (g = 0: the flux term vanishes), φ alone: (nx, ny, nz, 3) or (…, 1)."""
-    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(diff, x, y, z)
+    isotropic phase function (g = 0: the flux term vanishes), φ alone: (nx, ny, nz, 3) or (…, 1).
+    Read in float32, as :func:`.baked.diffusion_baked` (:func:`.medium.corners32`)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(diff.shape[0], diff.shape[1], diff.shape[2], x, y, z)
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
     per, nch = diffusion_layout(diff.shape[3])
     for c in range(nch):
         q = per * c
-        v = corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
+        v = corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q)
         if g != 0.0 and per == 4:  # the flux term (none in an isotropic phase function's radiance)
-            v -= 3.0 * g * (corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
-                            + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
-                            + corner_lerp(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz)
+            v -= 3.0 * g * (corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 1) * dx
+                            + corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 2) * dy
+                            + corner32(diff, i0, i1, fx, j0, j1, fy, k0, k1, fz, q + 3) * dz)
         v = max(v, 0.0) * INV_4PI_RC
         if c == 0:
             out0 = v
@@ -389,7 +394,7 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                 if model == EMISSION_ABSORPTION:
                     sr, sg, sb, _, _, _, _, _, _ = medium_optics(mode, medium, s, x, y, z)
                 elif model == AMBIENT_OCCLUSION:
-                    occ = amb * math.exp(-radius * trilinear_c(ball, x, y, z, 0))
+                    occ = amb * math.exp(-radius * trilinear32_c(ball, x, y, z, 0))
                     cr, cg, cb, ar, ag, ab, _, _, _ = medium_optics(mode, medium, s, x, y, z)
                     sr = cr + ar * occ
                     sg = cg + ag * occ
