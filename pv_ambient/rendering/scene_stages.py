@@ -133,7 +133,7 @@ class SceneStages:
         from ..stages.ball import ball_grid
 
         return self.cache.get(("ball", float(radius)), lambda: ball_grid(
-            self.optics.sigma_grid(), self.optics.albedo_channel, self.geometry.spacing, radius,
+            self.sigma_samples(), self.optics.albedo_channel, self.geometry.spacing, radius,
             same_as_previous=self.optics.albedo_same_as_previous()))
 
     def albedo_range(self, radius):
@@ -160,9 +160,18 @@ class SceneStages:
         f = light_resolution_for(self.optics, self.geometry) if light_resolution is None else light_resolution
         return self.cache.get(("light_grid", float(f)), lambda: make_light_grid(self.geometry, f))
 
+    def sigma_samples(self):
+        """σt at the data samples, float32 (cached; the field itself for a physical transfer
+        function): the ball grid's input, and the light grid's σt wherever its nodes are the samples."""
+        return self.cache.get(("sigma_l", "samples"), self.optics.sigma_grid)
+
     def sigma_on_light_grid(self, grid):
+        """σt at the nodes of ``grid`` (cached): :meth:`sigma_samples` when the nodes are the data
+        samples (the same values: the interpolation at a sample is the sample), else sampled."""
         from ..stages.propagation import sigma_on_grid
 
+        if grid.on_samples(self.optics.field.shape):
+            return self.sigma_samples()
         return self.cache.get(("sigma_l", grid.key()), lambda: sigma_on_grid(self.optics, grid))
 
     def optical_depth(self, light, grid, backend="cpu"):

@@ -5,6 +5,8 @@ import pickle
 
 import numpy as np
 
+import pv_ambient as pa
+
 from pv_ambient.inputs.camera import Camera
 from pv_ambient.inputs.lights import PointLight
 from pv_ambient.rendering.cache import SIGMA_ONLY
@@ -130,3 +132,22 @@ def test_transfer_function_change_starts_warm_from_the_shared_solution(monkeypat
     assert rel(_phi(warm_field), _phi(cold_field)) < 1e-5
     other = r.with_optics(r.optics)
     assert any(k[0] == "diffusion_start" for k in other.cache)
+
+
+def test_light_grid_on_the_samples_shares_the_samples_sigma():
+    # where the light-grid nodes are the data samples, σt on them is the samples' σt: one cached
+    # array (the ball grid's input too), equal to sampling it node by node
+    import pyvista as pv
+
+    from pv_ambient.stages.propagation import sigma_on_grid
+
+    g = pv.ImageData(dimensions=(9, 8, 7))
+    g["d"] = np.random.default_rng(3).random(g.n_points).astype(np.float32)
+    for r in (renderer(physical_grid()), pa.Renderer(g, transfer_function=pa.TransferFunction(clim=(0, 1)))):
+        grid = r.stages.light_grid(1.0)
+        assert grid.on_samples(r.optics.field.shape)
+        sig = r.stages.sigma_on_light_grid(grid)
+        assert sig is r.stages.sigma_samples()
+        assert np.array_equal(sig, sigma_on_grid(r.optics, grid))
+        finer = r.stages.light_grid(2.0)
+        assert r.stages.sigma_on_light_grid(finer).shape == tuple(finer.shape)
