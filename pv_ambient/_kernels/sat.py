@@ -209,55 +209,39 @@ def mean_extinction_grid(S, ax, ay, az, out):
 
 
 @driver
-def box_mean_x(src, dst, i0, f0, i1, f1, inv_len):
-    """One axis of a separable box mean (:func:`pv_ambient.stages.sat.box_mean_separable`), along
-    axis 0: ``dst[c] = (C(c + a) − C(c − a)) / 2a`` per line, ``C`` the line's cumulative integral
-    (float64 prefix sums, linear inside a cell) read at the precomputed ``(i0, f0)`` / ``(i1, f1)``
-    of :func:`pv_ambient.stages.sat.axis_weights`; ``inv_len = 1/2a``. ``dst`` may be ``src``: each
-    (·, j, ·) plane is buffered before it is written. Parallel over j, the inner loop over the
-    contiguous last axis."""
+def box_mean_plane(src, dst, axis, i0, f0, i1, f1, inv_len):
+    """One axis of a separable box mean (:func:`pv_ambient.stages.sat.box_mean_separable`) along
+    ``axis`` 0 or 1: ``dst[c] = (C(c + a) − C(c − a)) / 2a`` per line, ``C`` the line's cumulative
+    integral (float64 prefix sums, linear inside a cell) read at the precomputed ``(i0, f0)`` /
+    ``(i1, f1)`` of :func:`pv_ambient.stages.sat.axis_weights`; ``inv_len = 1/2a``. ``dst`` may be
+    ``src``: each plane across the other of axes 0 and 1 is buffered before it is written. Parallel
+    over those planes, the inner loop over the contiguous last axis."""
     nx, ny, nz = src.shape
-    for j in prange(ny):
-        P = np.empty((nx + 1, nz), np.float64)
+    n = nx if axis == 0 else ny
+    for m in prange(ny if axis == 0 else nx):
+        P = np.empty((n + 1, nz), np.float64)
         for k in range(nz):
             P[0, k] = 0.0
-        for i in range(nx):
+        for a in range(n):
             for k in range(nz):
-                P[i + 1, k] = P[i, k] + src[i, j, k]
-        for c in range(nx):
+                P[a + 1, k] = P[a, k] + (src[a, m, k] if axis == 0 else src[m, a, k])
+        for c in range(n):
             a0 = i0[c]
             a1 = i1[c]
             g0 = f0[c]
             g1 = f1[c]
             for k in range(nz):
                 v = (((1.0 - g1) * P[a1, k] + g1 * P[a1 + 1, k]) - ((1.0 - g0) * P[a0, k] + g0 * P[a0 + 1, k])) * inv_len
-                dst[c, j, k] = v if v > 0.0 else 0.0
-
-
-@driver
-def box_mean_y(src, dst, i0, f0, i1, f1, inv_len):
-    """:func:`box_mean_x` along axis 1 (parallel over i)."""
-    nx, ny, nz = src.shape
-    for i in prange(nx):
-        P = np.empty((ny + 1, nz), np.float64)
-        for k in range(nz):
-            P[0, k] = 0.0
-        for j in range(ny):
-            for k in range(nz):
-                P[j + 1, k] = P[j, k] + src[i, j, k]
-        for c in range(ny):
-            a0 = i0[c]
-            a1 = i1[c]
-            g0 = f0[c]
-            g1 = f1[c]
-            for k in range(nz):
-                v = (((1.0 - g1) * P[a1, k] + g1 * P[a1 + 1, k]) - ((1.0 - g0) * P[a0, k] + g0 * P[a0 + 1, k])) * inv_len
-                dst[i, c, k] = v if v > 0.0 else 0.0
+                v = v if v > 0.0 else 0.0
+                if axis == 0:
+                    dst[c, m, k] = v
+                else:
+                    dst[m, c, k] = v
 
 
 @driver
 def box_mean_z(src, dst, i0, f0, i1, f1, inv_len):
-    """:func:`box_mean_x` along the last axis (parallel over i, a line buffer per (i, j))."""
+    """:func:`box_mean_plane` along the last axis (parallel over i, a line buffer per (i, j))."""
     nx, ny, nz = src.shape
     for i in prange(nx):
         P = np.empty(nz + 1, np.float64)

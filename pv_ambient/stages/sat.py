@@ -246,16 +246,18 @@ def box_mean_separable(src, half_edges, dst):
     sample and its float64 copy of the grid (twice the float32 volume) are not needed. An axis
     whose half-edge is at most ½ keeps every sample's own cell: that pass is the identity and is
     skipped."""
-    from .._kernels.sat import box_mean_x, box_mean_y, box_mean_z
+    from .._kernels.sat import box_mean_plane, box_mean_z
 
-    passes = (box_mean_x, box_mean_y, box_mean_z)
     cur = src
     for ax in range(3):
         a = float(half_edges[ax])
         if a <= 0.5:
             continue
         i0, f0, i1, f1 = axis_weights(src.shape[ax], a)
-        passes[ax](cur, dst, i0, f0, i1, f1, 1.0 / (2.0 * a))
+        if ax < 2:
+            box_mean_plane(cur, dst, ax, i0, f0, i1, f1, 1.0 / (2.0 * a))
+        else:
+            box_mean_z(cur, dst, i0, f0, i1, f1, 1.0 / (2.0 * a))
         cur = dst
     if cur is not dst:
         dst[...] = src
