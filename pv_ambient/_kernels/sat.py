@@ -218,7 +218,8 @@ def box_mean_plane(src, dst, axis, i0, f0, i1, f1, inv_len):
     over those planes, the inner loop over the contiguous last axis."""
     nx, ny, nz = src.shape
     n = nx if axis == 0 else ny
-    for m in prange(ny if axis == 0 else nx):
+    planes = ny if axis == 0 else nx
+    for m in prange(planes):
         P = np.empty((n + 1, nz), np.float64)
         for k in range(nz):
             P[0, k] = 0.0
