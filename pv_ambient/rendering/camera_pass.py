@@ -17,7 +17,7 @@ import numpy as np
 
 from .._kernels import records as K
 from .. import backend
-from ..inputs.lights import PointLight, pack_lights
+from ..inputs.lights import pack_lights
 from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS, QUALITY_PRESETS
 from .request import stage_bar
 from .result import RenderResult
@@ -88,7 +88,7 @@ def gather_inputs(renderer, req, model, options):
     return inputs
 
 
-def _bake(renderer, req, model, options, inputs, records, d2min):
+def _bake(renderer, req, model, options, inputs, records):
     """Bake the lights' in-scattering on the light grid (isotropic phase): the light-grid record
     that reads it, and the kernel's model id (single scattering's when diffusion's φ/4π joins the
     bake, which it does exactly where the light-grid nodes are the data samples: trilinear
@@ -100,13 +100,13 @@ def _bake(renderer, req, model, options, inputs, records, d2min):
     dkey = ((bool(options.get("flux_limited", False)), fold)
             + ((int(options["sweep_orders"]),) if options.get("sweep_orders", 0) else ())
             if model == "diffusion" else None)
-    # the d² clamp follows the ray step, but only point lights read it: a scene lit by directional
-    # lights (the default rig) keeps one bake for every step — an interactive drag's longer steps
-    # (docs/jupyter.rst, "Server rendering") do not re-bake
-    clamp = d2min if any(isinstance(lt, PointLight) for lt in inputs.lights) else None
+    # the d² clamp follows the ray step, but a point light's slot holds its fall-off times the
+    # clamped d² (its intensity, whatever the clamp: :func:`pv_ambient._kernels.bake.bake_node`), so
+    # the bake does not depend on the step: an interactive drag's longer steps (docs/jupyter.rst,
+    # "Server rendering") do not re-bake
     with stage_bar(req.progress_bar, "baked in-scattering") as bar:
         inc, nch = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
-                                   (model, clamp, radius, tkey, req.propagation, ph.canonical(), dkey),
+                                   (model, radius, tkey, req.propagation, ph.canonical(), dkey),
                                    inputs.taus, inputs.fronts, diffusion=inputs.diffusion if fold else None)
         bar.update()
     return grec._replace(inc=inc, baked=nch), MODEL_IDS["single_scattering" if fold else model]
@@ -128,7 +128,7 @@ def raycast_records(renderer, req, model, options, inputs):
         # the bake reads each light's volumes; the baked ray cast reads neither them nor the ball
         # (placeholders: no stacked copy is made, and a GPU does not hold them for the camera)
         grec = K.LightGrid(lg.lo, lg.inv_step, K.NONE4, K.NONE4, K.NONE4, 0)
-        grec, kernel_model = _bake(renderer, req, model, options, inputs, (lrec, grec, arec), d2min)
+        grec, kernel_model = _bake(renderer, req, model, options, inputs, (lrec, grec, arec))
         arec = arec._replace(ball=K.NONE4)
     else:
         tau = stages.stacked("tau_stack", inputs.lights, inputs.grid, inputs.taus) if inputs.taus else K.NONE4

@@ -262,9 +262,10 @@ class SceneStages:
         """The baked in-scattered light of ``lights`` on ``grid``, ``(array, nch)``
         (:func:`pv_ambient.stages.bake.bake_incident`): ``records`` are the kernel's Lights,
         LightGrid and Ambient records, ``taus`` / ``phis`` each light's optical depth and tube front,
-        ``key`` what else they depend on (model, the d² clamp, radius, table, propagation, diffusion
-        options). A camera move reads it; a relight rebakes the slots of the lights that moved and
-        copies the others' from the bake it replaces."""
+        ``key`` what else they depend on (model, radius, table, propagation, diffusion options;
+        not the ray step: a point light's slot holds its intensity, not its clamped fall-off). A
+        camera move reads it; a relight rebakes the slots of the lights that moved and copies the
+        others' from the bake it replaces."""
         from ..stages.bake import bake_incident, incident_slots
 
         key = ("incident", tuple(lights), grid.key()) + tuple(key)
