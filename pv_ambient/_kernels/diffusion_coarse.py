@@ -66,26 +66,37 @@ def restrict_source(e, use_e, sig, alb, power, tx, wx, ty, wy, tz, wz, out):
     """``out[I, J, K, ch] +=`` the hat-weighted mean (as :func:`restrict`) of the first-collision
     source ``σt·a_ch·e·power[ch]`` of one light at the data samples (``e`` its irradiance per unit
     power, 1 without ``use_e``: then σs itself; ``alb`` (…, 1) for a grey albedo): restricted
-    without forming the product on the data grid."""
+    without forming the product on the data grid. ``out`` has 1 or 3 channels; each tap is read
+    once for all of them (the channels' sums, each in the taps' order, are those of one channel at
+    a time)."""
     m0, m1, m2, nc = out.shape
     na, nb, nd = wx.shape[1], wy.shape[1], wz.shape[1]
     ca = alb.shape[3]
+    q1 = min(1, ca - 1)
+    q2 = min(2, ca - 1)
     for I in prange(m0):
         for J in range(m1):
             for K in range(m2):
-                for ch in range(nc):
-                    acc = 0.0
-                    q = min(ch, ca - 1)
-                    for a in range(na):
-                        u = wx[I, a]
-                        if u == 0.0:
-                            continue
-                        i = tx[I, a]
-                        for b in range(nb):
-                            v = u * wy[J, b]
-                            j = ty[J, b]
-                            for d in range(nd):
-                                k = tz[K, d]
-                                ee = e[i, j, k] if use_e else 1.0
-                                acc += v * wz[K, d] * ee * sig[i, j, k] * alb[i, j, k, q]
-                    out[I, J, K, ch] += acc * power[ch]
+                acc0 = 0.0
+                acc1 = 0.0
+                acc2 = 0.0
+                for a in range(na):
+                    u = wx[I, a]
+                    if u == 0.0:
+                        continue
+                    i = tx[I, a]
+                    for b in range(nb):
+                        v = u * wy[J, b]
+                        j = ty[J, b]
+                        for d in range(nd):
+                            k = tz[K, d]
+                            ee = e[i, j, k] if use_e else 1.0
+                            w = v * wz[K, d] * ee * sig[i, j, k]
+                            acc0 += w * alb[i, j, k, 0]
+                            if nc > 1:
+                                acc1 += w * alb[i, j, k, q1]
+                                acc2 += w * alb[i, j, k, q2]
+                out[I, J, K, 0] += acc0 * power[0]
+                if nc > 1:
+                    out[I, J, K, 1] += acc1 * power[1]
+                    out[I, J, K, 2] += acc2 * power[2]

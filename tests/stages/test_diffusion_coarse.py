@@ -245,3 +245,25 @@ def test_coarse_medium_keeps_scattering():
     assert np.allclose(mc.albedo * mc.sigma_t[..., None], want, rtol=1e-6, atol=1e-12)
     assert np.all(mc.albedo[mc.sigma_t == 0] == 0) and np.any(mc.sigma_t == 0)
     assert mc.albedo.dtype == np.float32
+
+
+@pytest.mark.parametrize("albedo_channels, power", [(3, (2.0, 1.0, 0.5)), (1, (2.0, 1.0, 0.5)), (1, (3.0,))])
+def test_restricted_sources_equal_the_restricted_product(albedo_channels, power):
+    """The first-collision source restricted without forming it (one read of each tap for all the
+    channels) equals the restriction of ``σt·a_c·e·power_c`` formed on the data grid, summed over
+    two lights."""
+    from pv_ambient.inputs.grid import GridGeometry
+
+    rng = np.random.default_rng(5)
+    shape = (11, 9, 10)
+    sig = rng.random(shape)
+    alb = rng.random(shape + (albedo_channels,)).astype(np.float32)
+    geo = GridGeometry(shape, np.diag([0.25, 0.5, 0.25, 1.0]), np.zeros(3), np.array(shape, float) - 1.0)
+    co = dc.Coarsening.of(geo)
+    medium = DiffusionMedium.from_arrays(sig, alb if albedo_channels == 3 else alb[..., 0])
+    lights = [(rng.random(shape), np.asarray(power)), (rng.random(shape), 0.5 * np.asarray(power))]
+    got = co.restrict_sources(medium, lights)
+    a = alb.astype(np.float64)
+    want = sum(co.restrict(sig[..., None] * a * e[..., None] * p) for e, p in lights)
+    assert got.shape == co.shape + (len(power),)
+    assert np.allclose(got, want, rtol=1e-12, atol=1e-14)
