@@ -273,10 +273,10 @@ def sweep_rows(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach,
                 d = done + item // nb
                 ib = item % nb
                 k = k0 + sign * d
-                b0, b1 = lateral_range(nb, l1, reach[k])
+                b0, b1 = lateral_range(nb, l1, reach[k, 0])
                 if b0 <= ib <= b1:
                     J = min(jump, d)
-                    c0, c1 = lateral_range(nc, l2, reach[k])
+                    c0, c1 = lateral_range(nc, l2, reach[k, 1])
                     sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, hist[(d - J) % nslot], ib, c0, c1, out,
                               hist[d % nslot], R, inside)
         done += g
@@ -296,8 +296,8 @@ def sweep_serial(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reac
         J = min(jump, done_layers)
         prev = hist[(done_layers - J) % nslot]
         cur = hist[done_layers % nslot]
-        b0, b1 = lateral_range(nb, l1, reach[k])
-        c0, c1 = lateral_range(nc, l2, reach[k])
+        b0, b1 = lateral_range(nb, l1, reach[k, 0])
+        c0, c1 = lateral_range(nc, l2, reach[k, 1])
         for ib in range(b0, b1 + 1):
             sweep_row(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, c0, c1, out, cur, rows, inside)
         done_layers += 1

@@ -245,7 +245,7 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist, reach):
     segment in half-cell trapezoid steps. ``hist`` (jump + 1, nb, nc) float64 is a ring buffer of
     the last layers' path-mean extinction q = τ/ℓ (ℓ: path length inside the box toward the light);
     interpolating q rather than τ makes the scheme exact in a homogeneous medium.
-    ``reach[k]`` bounds layer k's nodes laterally (per axis, around the light; ``inf``: all): a point
+    ``reach[k, q]`` bounds layer k's nodes on lateral axis q (around the light; ``inf``: all): a point
     light's sweep along ``a`` writes only the pyramid of nodes whose dominant axis is ``a``, and
     :func:`pv_ambient.stages.propagation.sweep_reach` widens it by what their characteristics read.
     """
@@ -265,8 +265,8 @@ def sweep_tau(sig, B, is_point, lx, ly, lz, a, sign, jump, out, hist, reach):
         J = min(jump, done_layers)
         prev = hist[(done_layers - J) % nslot]
         cur = hist[slot]
-        b0, b1 = lateral_range(nb, lb, reach[k])
-        c0, c1 = lateral_range(nc, lc, reach[k])
+        b0, b1 = lateral_range(nb, lb, reach[k, 0])
+        c0, c1 = lateral_range(nc, lc, reach[k, 1])
         for ib in prange(b0, b1 + 1):
             for ic in range(c0, c1 + 1):
                 sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur)

@@ -146,9 +146,54 @@ def test_pyramid_sweep_equals_whole_layer_sweep(light_pos, driver, monkeypatch):
     grid = make_light_grid(vol.geometry, 1.0)
     sig = sigma_on_grid(optics, grid)
     fast = optical_depth(sig, grid, vol.geometry, PointLight(light_pos), driver=driver)
-    monkeypatch.setattr(propagation, "sweep_reach", lambda na, la, sign, jump: np.full(na, np.inf))
+    monkeypatch.setattr(propagation, "sweep_reach", lambda shape, light, axis, sign, jump: np.full((shape[axis], 2), np.inf))
     whole = optical_depth(sig, grid, vol.geometry, PointLight(light_pos), driver=driver)
     assert np.array_equal(fast, whole)
+
+
+@pytest.mark.parametrize("jump", [1, 2, 5])
+def test_pyramid_sweep_equals_whole_layer_sweep_for_any_jump(jump, monkeypatch):
+    # the reach's integer ranges for other jumps and lights off the nodes (seeded random positions,
+    # inside and outside the box), both drivers
+    from pv_ambient.stages import propagation
+
+    rng = np.random.default_rng(jump)
+    field = rng.random((23, 31, 19)).astype(np.float32) * 4.0
+    vol = Volume(field, spacing=(1 / 22, 1 / 30, 1 / 24))
+    from pv_ambient.inputs.transfer import _grid_optics
+
+    optics = _grid_optics(field, np.zeros(field.shape + (6,), np.float32))
+    grid = make_light_grid(vol.geometry, 1.0)
+    sig = sigma_on_grid(optics, grid)
+    lights = [PointLight(tuple(p)) for p in rng.uniform(-0.2, 1.2, (4, 3))]
+    fast = {(i, d): optical_depth(sig, grid, vol.geometry, lt, jump=jump, driver=d)
+            for i, lt in enumerate(lights) for d in ("rows", "nodes")}
+    monkeypatch.setattr(propagation, "sweep_reach", lambda shape, light, axis, sign, jump: np.full((shape[axis], 2), np.inf))
+    for (i, d), tau in fast.items():
+        assert np.array_equal(tau, optical_depth(sig, grid, vol.geometry, lights[i], jump=jump, driver=d))
+
+
+def test_point_light_sweeps_compute_few_nodes_beyond_their_pyramids():
+    """Why: the reach once widened each layer by 1.5 cells per ``jump`` layers toward the light, and
+    a point light's six sweeps computed 1.3× the grid's nodes; by exact integer ranges of the nodes
+    the layers ahead read, at most 1.1× on a 96³ grid."""
+    from pv_ambient._kernels.lightvol import lateral_range
+    from pv_ambient.stages.propagation import JUMP, sweep_reach
+
+    shape = (96, 96, 96)
+    for light in [(47.5, 47.5, 47.5), (30.2, 61.7, 50.0)]:
+        total = 0
+        for a in range(3):
+            lat = [i for i in range(3) if i != a]
+            for sign in (1, -1):
+                reach = sweep_reach(shape, light, a, sign, JUMP)
+                for k in range(shape[a]):
+                    if reach[k, 0] < 0:
+                        continue
+                    b0, b1 = lateral_range(shape[lat[0]], light[lat[0]], reach[k, 0])
+                    c0, c1 = lateral_range(shape[lat[1]], light[lat[1]], reach[k, 1])
+                    total += (b1 - b0 + 1) * (c1 - c0 + 1)
+        assert total <= 1.1 * np.prod(shape)
 
 
 # -- the CPU row driver (pv_ambient/_kernels/lightsweep.py) against exact chords and the per-node driver
