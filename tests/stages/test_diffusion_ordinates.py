@@ -314,3 +314,24 @@ def test_sweeps_refuse_a_mean_cosine_per_node():
     with pytest.raises(ValueError, match="one phase function"):
         dm.solve_for_light(light, np.full(medium.shape, 0.3), medium=medium, geometry=r.geometry,
                            tau=r.stages.optical_depth(light, grid), light_grid=grid, sweep_orders=2)
+
+
+def test_scattering_orders_report_each_order_and_keep_their_values(capsys):
+    """A long ``auto`` accurate first frame spends most of its time in these sweeps: with
+    ``progress_bar`` a bar counts the orders (each sweeps the grid along every direction), and the
+    result is the same as without it."""
+    from pv_ambient.stages.diffusion.ordinates import scattering_orders
+
+    n, sig, a = 7, 3.0, 0.8
+    shape = (n, n, n)
+    om = np.zeros(shape + (3,))
+    om[..., 0] = 1.0
+    src = [(np.full(shape + (3,), 1.5), om)]
+    args = (np.full(shape, sig), np.full(shape + (3,), a), src, HENYEY_GREENSTEIN, 0.3, (0.1,) * 3, 3)
+    quiet = scattering_orders(*args, directions=16)
+    capsys.readouterr()
+    shown = scattering_orders(*args, directions=16, progress_bar=True)
+    err = capsys.readouterr().err
+    assert "transport sweeps" in err and "3/3" in err
+    for x, y in zip(quiet, shown):
+        assert np.array_equal(x, y)

@@ -144,7 +144,7 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
 
 
 def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, orders, *,
-                      directions=DEFAULT_DIRECTIONS, **kw):
+                      directions=DEFAULT_DIRECTIONS, progress_bar=False, **kw):
     """The first ``orders`` scattering orders by :func:`sweep_once` (this module's docstring):
     ``(φ, F, φ_K, F_K)``, the sums over the orders and the last order alone.
 
@@ -152,18 +152,31 @@ def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, or
     directions differ); orders two and up are scattered from the lights' summed φ and F, with
     σs = ``albedo``·σt ((nx, ny, nz) or per channel). Their direction field ``F_k/φ_k`` is taken
     from the channels' sums (the channels share σt and the phase function; it is exact when they
-    are proportional). ``directions``: an int, or (first order, later orders). ``kw``:
-    :func:`sweep_once`'s other keywords.
+    are proportional). ``directions``: an int, or (first order, later orders). ``progress_bar``:
+    a tqdm bar over the orders (each order sweeps the whole grid along every direction: at 256³
+    an order takes seconds). ``kw``: :func:`sweep_once`'s other keywords.
     """
     orders = check_int(orders, "orders", lo=1)
     m1, m2 = (directions, directions) if np.ndim(directions) == 0 else tuple(directions)
     sig = np.asarray(sigma_t, np.float64)
+    if progress_bar:
+        from tqdm.auto import tqdm
+
+        with tqdm(total=orders, desc="transport sweeps", unit="order") as bar:
+            return _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, bar.update, kw)
+    return _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, None, kw)
+
+
+def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, done, kw):
+    """:func:`scattering_orders`' work; ``done()`` (or None) is called after each order."""
     phi_k = F_k = None
     for q0, omega in sources:
         p, f = sweep_once(sig, q0, omega, phase_kind, phase_g, spacing, directions=m1, **kw)
         phi_k, F_k = (p, f) if phi_k is None else (phi_k + p, F_k + f)
     if phi_k is None:
         raise ValueError("sources must hold at least one (q0, omega) pair")
+    if done is not None:
+        done()
     alb = np.asarray(albedo)
     if phi_k.ndim == 4 and alb.ndim == 3:
         alb = alb[..., None]
@@ -182,4 +195,6 @@ def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, or
         phi_k, F_k = sweep_once(sig, sig_s * phi_k, om, phase_kind, phase_g, spacing, directions=m2, **kw)
         phi += phi_k
         F += F_k
+        if done is not None:
+            done()
     return phi, F.astype(np.float32), phi_k, F_k

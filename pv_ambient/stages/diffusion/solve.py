@@ -520,7 +520,7 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
                                            association=opts["association"], direction=opts["direction"],
-                                           directions=sweep_directions)
+                                           directions=sweep_directions, progress_bar=opts.get("progress_bar", False))
     # the light scattered more than K times: diffusion from order K's moments
     alb = medium.albedo if medium.albedo.ndim == 4 else medium.albedo[..., None]
     sig_s = alb * medium.sigma_t[..., None]
