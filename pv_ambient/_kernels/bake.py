@@ -15,7 +15,7 @@ from .interp import trilinear4
 from .models import AMBIENT_SCATTERING
 from .phase import phase_eval
 from .preint import tau_coord
-from .raycast import INV_4PI_RC, ambient_light_one, light_at
+from .raycast import INV_4PI_RC, ambient_light_with, ball_entry, light_at
 
 
 @scalar(inline=True)
@@ -51,9 +51,10 @@ def bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, on_sampl
         sr = er * w
         sg = eg * w
         sb = eb * w
-        if model == AMBIENT_SCATTERING:
-            mr, mg, mb = ambient_light_one(l, x, y, z, wx, wy, wz, 0.0, 0.0, 1.0, w2i, lights, grid, ambient, it, tt,
-                                           b1, b2, b3)
+        if model == AMBIENT_SCATTERING:  # the light's irradiance and direction at the node reused
+            s = ball_entry(l, lights, ambient.radius, wx, wy, wz)
+            mr, mg, mb = ambient_light_with(l, er, eg, eb, ox, oy, oz, s, x, y, z, 0.0, 0.0, 1.0, w2i, lights, grid,
+                                            ambient, it, tt, b1, b2, b3)
             sr += mr
             sg += mg
             sb += mb

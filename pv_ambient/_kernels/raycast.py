@@ -202,17 +202,33 @@ def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, t
 def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb):
     """Light ``l``'s term of :func:`ambient_light`, ``E_l Φ_l D(θ_l, ·)`` (rgb), the τ coordinate of
     D located as ``(it, tt)``."""
-    lkind, lvec = lights.kind, lights.vec
-    llo, linv, phi = grid.lo, grid.inv_step, grid.phi
-    radius, D, a_nodes = ambient.radius, ambient.D, ambient.a_nodes
-    nch = phi.shape[3] // lkind.shape[0]
     er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
-    s = radius
-    if lkind[l] == 0:
+    return ambient_light_with(l, er, eg, eb, ox, oy, oz, ball_entry(l, lights, ambient.radius, wx, wy, wz), x, y, z,
+                              dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb)
+
+
+@scalar(force_inline=True)
+def ball_entry(l, lights, radius, wx, wy, wz):
+    """How far back toward light ``l`` the ball around world point w is entered: its radius, or the
+    distance to a point light when that is shorter."""
+    if lights.kind[l] == 0:
+        lvec = lights.vec
         vx = wx - lvec[l, 0]
         vy = wy - lvec[l, 1]
         vz = wz - lvec[l, 2]
-        s = min(s, math.sqrt(vx * vx + vy * vy + vz * vz))
+        return min(radius, math.sqrt(vx * vx + vy * vy + vz * vz))
+    return radius
+
+
+@scalar(force_inline=True)
+def ambient_light_with(l, er, eg, eb, ox, oy, oz, s, x, y, z, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr,
+                       abg, abb):
+    """:func:`ambient_light_one` with light ``l``'s irradiance (er, eg, eb) and direction (ox, oy, oz)
+    at the point (:func:`light_at`) and the ball's entry distance ``s`` (:func:`ball_entry`) given:
+    a caller that has them (the bake) computes them once."""
+    llo, linv, phi = grid.lo, grid.inv_step, grid.phi
+    D, a_nodes = ambient.D, ambient.a_nodes
+    nch = phi.shape[3] // lights.kind.shape[0]
     qx, qy, qz = affine_vector(w2i, ox, oy, oz)
     lx = (x - s * qx - llo[0]) * linv[0]
     ly = (y - s * qy - llo[1]) * linv[1]
