@@ -67,8 +67,7 @@ def restrict_source(e, use_e, sig, alb, power, tx, wx, ty, wy, tz, wz, out):
     source ``σt·a_ch·e·power[ch]`` of one light at the data samples (``e`` its irradiance per unit
     power, 1 without ``use_e``: then σs itself; ``alb`` (…, 1) for a grey albedo): restricted
     without forming the product on the data grid. ``out`` has 1 or 3 channels; each tap is read
-    once for all of them (the channels' sums, each in the taps' order, are those of one channel at
-    a time)."""
+    once for all of them, each channel summed over the taps in their order."""
     m0, m1, m2, nc = out.shape
     na, nb, nd = wx.shape[1], wy.shape[1], wz.shape[1]
     ca = alb.shape[3]
