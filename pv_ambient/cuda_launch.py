@@ -33,6 +33,12 @@ COUNTS = {"fast": 0, "numba": 0}
 
 _STATE = {}  # "core": (launch, LaunchConfig, stream, cooperative keyword) once found; "broken": why not
 
+#: The compiled overload a kernel's ``overloads`` holds for a tuple of argument types, found by the
+#: types' identities: a dict lookup by the tuple hashes every nested record type at every launch
+#: (hundreds of ``Type.__hash__`` calls per camera move). Numba interns its types, and each entry
+#: keeps its dict and types alive, so an identity seen again is the same type.
+_OVERLOADS = {}
+
 
 def _core():
     """The driver-level pieces of a launch, as numba-cuda's ``_Kernel.launch`` uses them; None
@@ -108,9 +114,22 @@ def _fast(core, overloads, kernel, griddim, blockdim, args, memo):
             return False
         types.append(got[0])
         flat.extend(got[1])
-    overload = overloads.get(tuple(types))
+    overload = _overload(overloads, types)
     if overload is None or overload.debug or overload.cooperative:
         return False
     config = config_cls(grid=griddim, block=blockdim, shmem_size=0, **{coop: False})
     core_launch(stream, config, overload._codelibrary.get_cufunc().kernel, *flat)
     return True
+
+
+def _overload(overloads, types):
+    """``overloads.get(tuple(types))``, remembered by the identities of the dict and of the types
+    (:data:`_OVERLOADS`)."""
+    key = (id(overloads),) + tuple(map(id, types))
+    hit = _OVERLOADS.get(key)
+    if hit is not None and hit[0] is overloads and all(a is b for a, b in zip(hit[1], types)):
+        return hit[2]
+    overload = overloads.get(tuple(types))
+    if overload is not None:
+        _OVERLOADS[key] = (overloads, tuple(types), overload)
+    return overload
