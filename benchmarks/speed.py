@@ -163,10 +163,11 @@ class Frames:
         self.renderer = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(), lights=lights)
         self.step = self.renderer.default_step()
         self.moves = 0  # every relight goes to a position never used before (no cached volume)
+        self._two = None  # the two-light rows' renderer (:meth:`two_lights`)
 
     def two_lights(self):
         """The renderer of the two-light rows (the scene's light and a second point light), made once."""
-        if getattr(self, "_two", None) is None:
+        if self._two is None:
             second = pa.PointLight((0.3, -0.2, 0.1), intensity=2.0)
             self._two = pa.Renderer(self.grid, backend="cpu", transfer_function=transfer_function(),
                                     lights=[self.light, second])
