@@ -26,13 +26,14 @@ def grid_point(grid, x, y, z):
 
 @scalar(force_inline=True)
 def point_weight(lights, l, wx, wy, wz):
-    """``1 / max(d², d2min)`` of point light ``l`` at world point w (float32): the 1/d² that
-    :func:`baked_light` applies at the sample."""
+    """``1 / max(d², d2min)`` of point light ``l`` at world point w (float32, as the light's position:
+    the sample's world position is float32 already), the 1/d² that :func:`baked_light` applies at the
+    sample."""
     lvec = lights.vec
-    vx = wx - lvec[l, 0]
-    vy = wy - lvec[l, 1]
-    vz = wz - lvec[l, 2]
-    return 1.0 / max(vx * vx + vy * vy + vz * vz, lights.d2min)
+    vx = wx - np.float32(lvec[l, 0])
+    vy = wy - np.float32(lvec[l, 1])
+    vz = wz - np.float32(lvec[l, 2])
+    return np.float32(1.0) / max(vx * vx + vy * vy + vz * vz, np.float32(lights.d2min))
 
 
 @scalar(force_inline=True)
@@ -57,16 +58,17 @@ def baked_light(x, y, z, wx, wy, wz, lights, grid):
     smooth factor ``I_j (T_j p + Φ_j D_j)`` interpolated and divided by ``max(d_j², d2min)`` here, at
     the sample (the 1/d² singularity is not interpolated), plus the directional lights' summed slot.
     ``grid.baked`` is the number of channels per slot (1: grey, 3: rgb); see :func:`.bake.bake_incident`.
-    The point and the interpolation are float32 (:func:`grid_point`, :func:`point_weight`), the sums
-    float64: the packet driver (:mod:`.packet`) computes the same, one light at a time."""
+    Float32 throughout (:func:`grid_point`, :func:`point_weight`; a sum of a few slots, not an
+    accumulating one): the packet driver (:mod:`.packet`) computes the same, one light at a time, in
+    lane loops that touch no float64 and so run twice the lanes per instruction."""
     inc = grid.inc
     nch = grid.baked
     lkind = lights.kind
     lx, ly, lz = grid_point(grid, np.float32(x), np.float32(y), np.float32(z))
     px, py, pz = np.float32(wx), np.float32(wy), np.float32(wz)
-    sr = 0.0
-    sg = 0.0
-    sb = 0.0
+    sr = np.float32(0.0)
+    sg = np.float32(0.0)
+    sb = np.float32(0.0)
     slot = 0
     for l in range(lkind.shape[0]):
         if lkind[l] == 0:
@@ -98,8 +100,9 @@ def baked_light(x, y, z, wx, wy, wz, lights, grid):
     return sr, sg, sb
 
 
-#: 1/(4π): an isotropic phase function's value, which turns the diffusion field's φ into radiance.
-INV_4PI = 0.07957747154594767
+#: 1/(4π): an isotropic phase function's value, which turns the diffusion field's φ into radiance
+#: (float32: the lane loops that read the field touch no float64).
+INV_4PI = np.float32(0.07957747154594767)
 
 
 @scalar(inline=True)

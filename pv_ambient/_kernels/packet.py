@@ -13,15 +13,18 @@ termination and jitter — split in three passes per step of the packet:
 3. :func:`lanes_sample_ea`, or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
    :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
    functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
-   :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms) and composites.
+   :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms, :func:`.raycast.lit_table_source`)
+   into float32 lane fields, then :func:`lanes_composite` composites them (float64).
 
-Lane state is a flat structure of arrays per thread (float32 positions for the sample, float64
-ray state and sums: float64 where sums accumulate), indexed with unsigned integers. Why these
-rules: LLVM vectorises a lane loop only when its addresses are affine in the lane (Numba's
+Lane state is a flat structure of arrays per thread (float32 positions for the sample and the
+sample's opacity and source, float64 ray state and sums: float64 where sums accumulate), indexed
+with unsigned integers. Why these rules: LLVM vectorises a lane loop only when its addresses are affine in the lane (Numba's
 negative-index wraparound of a signed index is not), when its body is branch-free (selects) and
 when Numba marks the arrays ``noalias`` — which it does for a ``prange`` body with no aliasing
 assignments, so the vectorised passes are inlined into the driver and create no array views,
-tuples or booleans there. ``tests/kernels/test_packet.py`` compiles the driver outside the disk
+tuples or booleans there. LLVM also picks one vector width per loop, from the widest type the loop
+loads or stores: a loop that touches a float64 field runs 4 lanes per 256-bit instruction, a
+float32-only one 8, so the loops that hold the gathers touch no float64. ``tests/kernels/test_packet.py`` compiles the driver outside the disk
 cache and checks that vector FMAs are in its assembly.
 
 Which models and media (:func:`applies`): emission–absorption, and single scattering, ambient
@@ -41,11 +44,11 @@ import numpy as np
 from ._jit import driver, prange, scalar, with_globals
 from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span
-from .medium import (FULL_STEP, MODE_LUT, full_segment, step_albedo_emission, step_column, step_lookup, step_opacity,
+from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
                      step_sample)
 from .models import AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
 from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_layout, diffusion_rgb, grid_point, point_weight
-from .raycast import STREAM_JITTER, TILE, index_ray, row_stride, table_source
+from .raycast import STREAM_JITTER, TILE, index_ray, lit_table_source, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
@@ -55,14 +58,14 @@ LANES = 16
 SIDE = 4
 
 # float32 lane fields: the sample's index-space and world position, whether the lane samples this
-# step; for a lit sample its opacity, table entry and fraction, and light-grid position
-X, Y, Z, ACT, WX, WY, WZ, A, Q0, FQ, LX, LY, LZ = range(13)
-N32 = 13
+# step; the sample's opacity (zero where inactive) and source rgb (a lit sample: its in-scattered
+# light first); for a lit sample its table entry and fraction, and light-grid position
+X, Y, Z, ACT, WX, WY, WZ, A, SR, SG, SB, Q0, FQ, LX, LY, LZ = range(16)
+N32 = 16
 # float64 lane fields: ray origin and direction in index space, segment start, next boundary,
-# ray end, exit of the current non-empty block, done, transmittance, radiance rgb, the world ray,
-# the in-scattered light rgb of a lit sample
-PX, PY, PZ, QX, QY, QZ, TS, TN, T1, TB, DONE, TR, RR, RG, RB, OX, OY, OZ, DX, DY, DZ, LR, LG, LB = range(24)
-N64 = 24
+# ray end, exit of the current non-empty block, done, transmittance, radiance rgb, the world ray
+PX, PY, PZ, QX, QY, QZ, TS, TN, T1, TB, DONE, TR, RR, RG, RB, OX, OY, OZ, DX, DY, DZ = range(21)
+N64 = 21
 
 
 @scalar
@@ -237,16 +240,32 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
 @scalar(inline=True)
 def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
     """Pass 3 (vectorised): every lane samples its full segment with :func:`.medium.step_sample`
-    and composites (an inactive lane adds nothing; ``lights``, ``grid`` and ``dfield`` unused: every
-    pass 3 takes the same arguments)."""
+    (float32: its opacity, zero for an inactive lane, and colour) and :func:`lanes_composite`
+    composites it (``lights``, ``grid`` and ``dfield`` unused: every pass 3 takes the same
+    arguments)."""
     for k in range(LANES):
         a, cr, cg, cb = step_sample(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                                     l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
+        l32[np.uint64(b32 + A * LANES + k)] = a * l32[np.uint64(b32 + ACT * LANES + k)]
+        l32[np.uint64(b32 + SR * LANES + k)] = cr
+        l32[np.uint64(b32 + SG * LANES + k)] = cg
+        l32[np.uint64(b32 + SB * LANES + k)] = cb
+    lanes_composite(l32, b32, l64, b64)
+
+
+@scalar(inline=True)
+def lanes_composite(l32, b32, l64, b64):
+    """Pass 3, last (vectorised): every lane's sample, opacity ``A`` and source ``SR, SG, SB``
+    (float32), composited into its radiance and transmittance (float64). Why a loop of its own: LLVM
+    picks one vector width per loop, from the widest type the loop loads or stores; the sample
+    loops before it, which hold the gathers, touch only float32 and so run twice the lanes per
+    instruction (docs/performance.rst, "CPU camera pass")."""
+    for k in range(LANES):
         T = l64[np.uint64(b64 + TR * LANES + k)]
-        w = T * (a * l32[np.uint64(b32 + ACT * LANES + k)])
-        l64[np.uint64(b64 + RR * LANES + k)] += w * cr
-        l64[np.uint64(b64 + RG * LANES + k)] += w * cg
-        l64[np.uint64(b64 + RB * LANES + k)] += w * cb
+        w = T * l32[np.uint64(b32 + A * LANES + k)]
+        l64[np.uint64(b64 + RR * LANES + k)] += w * l32[np.uint64(b32 + SR * LANES + k)]
+        l64[np.uint64(b64 + RG * LANES + k)] += w * l32[np.uint64(b32 + SG * LANES + k)]
+        l64[np.uint64(b64 + RB * LANES + k)] += w * l32[np.uint64(b32 + SB * LANES + k)]
         l64[np.uint64(b64 + TR * LANES + k)] = T - w
 
 
@@ -254,7 +273,7 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, gr
 def lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
     """Pass 3 of a lit sample with baked lights (vectorised), first part: the opacity and table
     entry of every lane's sample, then the baked light one light slot at a time
-    (:func:`.baked.baked_light`'s terms, in its order) into the lanes' light."""
+    (:func:`.baked.baked_light`'s terms, in its order) into the lanes' light (``SR, SG, SB``)."""
     for k in range(LANES):
         q0, fq = step_lookup(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                              l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
@@ -266,9 +285,9 @@ def lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, gr
         l32[np.uint64(b32 + LX * LANES + k)] = lx
         l32[np.uint64(b32 + LY * LANES + k)] = ly
         l32[np.uint64(b32 + LZ * LANES + k)] = lz
-        l64[np.uint64(b64 + LR * LANES + k)] = 0.0
-        l64[np.uint64(b64 + LG * LANES + k)] = 0.0
-        l64[np.uint64(b64 + LB * LANES + k)] = 0.0
+        l32[np.uint64(b32 + SR * LANES + k)] = np.float32(0.0)
+        l32[np.uint64(b32 + SG * LANES + k)] = np.float32(0.0)
+        l32[np.uint64(b32 + SB * LANES + k)] = np.float32(0.0)
     inc = grid.inc
     nch = grid.baked
     lkind = lights.kind
@@ -291,16 +310,16 @@ def lanes_diffusion(l32, b32, l64, b64, dfield):
         for k in range(LANES):
             v = diffusion_grey(dfield, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
                                l32[np.uint64(b32 + Z * LANES + k)])
-            l64[np.uint64(b64 + LR * LANES + k)] += v
-            l64[np.uint64(b64 + LG * LANES + k)] += v
-            l64[np.uint64(b64 + LB * LANES + k)] += v
+            l32[np.uint64(b32 + SR * LANES + k)] += v
+            l32[np.uint64(b32 + SG * LANES + k)] += v
+            l32[np.uint64(b32 + SB * LANES + k)] += v
     else:
         for k in range(LANES):
             vr, vg, vb = diffusion_rgb(dfield, per, l32[np.uint64(b32 + X * LANES + k)],
                                        l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
-            l64[np.uint64(b64 + LR * LANES + k)] += vr
-            l64[np.uint64(b64 + LG * LANES + k)] += vg
-            l64[np.uint64(b64 + LB * LANES + k)] += vb
+            l32[np.uint64(b32 + SR * LANES + k)] += vr
+            l32[np.uint64(b32 + SG * LANES + k)] += vg
+            l32[np.uint64(b32 + SB * LANES + k)] += vb
 
 
 @scalar(inline=True)
@@ -322,16 +341,17 @@ def lanes_sample_diffusion(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lig
 
 @scalar(inline=True)
 def lanes_lit_composite(l32, b32, l64, b64, stab):
-    """Pass 3 of a lit sample, last part (vectorised): the source ``a·L + (1 − a)·Le`` composited."""
+    """Pass 3 of a lit sample, last part (vectorised): the source ``a·L + (1 − a)·Le``
+    (:func:`.raycast.lit_table_source`, float32) in place of each lane's light, then
+    :func:`lanes_composite`."""
     for k in range(LANES):
-        ar, ag, ab, er, eg, eb = step_albedo_emission(stab, np.uint64(l32[np.uint64(b32 + Q0 * LANES + k)]),
-                                                      l32[np.uint64(b32 + FQ * LANES + k)])
-        T = l64[np.uint64(b64 + TR * LANES + k)]
-        w = T * l32[np.uint64(b32 + A * LANES + k)]
-        l64[np.uint64(b64 + RR * LANES + k)] += w * (ar * l64[np.uint64(b64 + LR * LANES + k)] + (1.0 - ar) * er)
-        l64[np.uint64(b64 + RG * LANES + k)] += w * (ag * l64[np.uint64(b64 + LG * LANES + k)] + (1.0 - ag) * eg)
-        l64[np.uint64(b64 + RB * LANES + k)] += w * (ab * l64[np.uint64(b64 + LB * LANES + k)] + (1.0 - ab) * eb)
-        l64[np.uint64(b64 + TR * LANES + k)] = T - w
+        sr, sg, sb = lit_table_source(stab, np.uint64(l32[np.uint64(b32 + Q0 * LANES + k)]),
+                                      l32[np.uint64(b32 + FQ * LANES + k)], l32[np.uint64(b32 + SR * LANES + k)],
+                                      l32[np.uint64(b32 + SG * LANES + k)], l32[np.uint64(b32 + SB * LANES + k)])
+        l32[np.uint64(b32 + SR * LANES + k)] = sr
+        l32[np.uint64(b32 + SG * LANES + k)] = sg
+        l32[np.uint64(b32 + SB * LANES + k)] = sb
+    lanes_composite(l32, b32, l64, b64)
 
 
 @scalar(inline=True)
@@ -344,20 +364,20 @@ def lanes_baked_slot(l32, b32, l64, b64, inc, q, nch, lights, l, point):
             v = baked_grey(inc, q, l32[np.uint64(b32 + LX * LANES + k)], l32[np.uint64(b32 + LY * LANES + k)],
                            l32[np.uint64(b32 + LZ * LANES + k)])
             w = point_weight(lights, l, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
-                             l32[np.uint64(b32 + WZ * LANES + k)]) if point else 1.0
+                             l32[np.uint64(b32 + WZ * LANES + k)]) if point else np.float32(1.0)
             r = w * v
-            l64[np.uint64(b64 + LR * LANES + k)] += r
-            l64[np.uint64(b64 + LG * LANES + k)] += r
-            l64[np.uint64(b64 + LB * LANES + k)] += r
+            l32[np.uint64(b32 + SR * LANES + k)] += r
+            l32[np.uint64(b32 + SG * LANES + k)] += r
+            l32[np.uint64(b32 + SB * LANES + k)] += r
     else:
         for k in range(LANES):
             vr, vg, vb = baked_rgb(inc, q, l32[np.uint64(b32 + LX * LANES + k)], l32[np.uint64(b32 + LY * LANES + k)],
                                    l32[np.uint64(b32 + LZ * LANES + k)])
             w = point_weight(lights, l, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
-                             l32[np.uint64(b32 + WZ * LANES + k)]) if point else 1.0
-            l64[np.uint64(b64 + LR * LANES + k)] += w * vr
-            l64[np.uint64(b64 + LG * LANES + k)] += w * vg
-            l64[np.uint64(b64 + LB * LANES + k)] += w * vb
+                             l32[np.uint64(b32 + WZ * LANES + k)]) if point else np.float32(1.0)
+            l32[np.uint64(b32 + SR * LANES + k)] += w * vr
+            l32[np.uint64(b32 + SG * LANES + k)] += w * vg
+            l32[np.uint64(b32 + SB * LANES + k)] += w * vb
 
 
 @scalar

@@ -320,8 +320,18 @@ def table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid, ambient
         lr += mr
         lg += mg
         lb += mb
+    return lit_table_source(stab, q0, fq, lr, lg, lb)
+
+
+@scalar(force_inline=True)
+def lit_table_source(stab, q0, fq, lr, lg, lb):
+    """A lit sample's source ``a·L + (1 − a)·Le`` at the step-corrected table's ``(q0, fq)`` with
+    in-scattered light L (rgb, per unit albedo), float32 (:func:`table_source`; the packet driver's
+    lane loop that computes it touches no float64)."""
+    one = np.float32(1.0)
     ar, ag, ab, er, eg, eb = step_albedo_emission(stab, q0, fq)
-    return ar * lr + (1.0 - ar) * er, ag * lg + (1.0 - ag) * eg, ab * lb + (1.0 - ab) * eb
+    return (ar * np.float32(lr) + (one - ar) * er, ag * np.float32(lg) + (one - ag) * eg,
+            ab * np.float32(lb) + (one - ab) * eb)
 
 
 @scalar(force_inline=True)

@@ -177,10 +177,13 @@ r.render(camera=pa.Camera((0, -3, 0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8),
 args = seen[0][1:] + packet.scratch()
 packet.PACKET_DRIVERS[4].compile(tuple(numba.typeof(a) for a in args))
 print("POLICY", load_policy()["loads"])
+import llvmlite.binding as ll
+print("AVX2", int(bool(ll.get_host_cpu_features().get("avx2", False))))
 for model in (0, 4):  # emission-absorption, diffusion (the lit lane loops and the field's)
     drv = packet.PACKET_DRIVERS[model]
     asm = drv.inspect_asm(drv.signatures[0])
     print(f"PACKED_FMA{model}", len(re.findall(r"vfmadd\w*ps\s+[^\n]*%[xyz]mm", asm)))
+    print(f"NARROW_FMA{model}", len(re.findall(r"vfmadd\w*ps\s+[^\n]*%xmm", asm)))
     print(f"GATHERS{model}", len(re.findall(r"vgather\w+", asm)))
 """
 
@@ -188,17 +191,21 @@ for model in (0, 4):  # emission-absorption, diffusion (the lit lane loops and t
 def test_packet_driver_is_vectorised(tmp_path):
     """Compiled outside the disk cache, the packet drivers' assembly (emission–absorption's, and
     diffusion's, which holds the lit lane loops and the field's) has packed float32 FMAs (the lane
-    loops vectorised; at the width LLVM picks for the CPU — 128-bit xmm on some AVX-512 Xeons, ymm
-    or zmm on others); with the lane-by-lane load policy, no hardware gathers."""
+    loops vectorised), on a CPU with AVX2 none of them 128-bit: the loops with float32 arithmetic touch
+    no float64 field, which would make LLVM run them 4 lanes per instruction (docs/performance.rst,
+    "CPU camera pass"); with the lane-by-lane load policy, no hardware gathers."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PV_AMBIENT_PACKETS="1")
     env.pop("NUMBA_CPU_FEATURES", None)
     proc = subprocess.run([sys.executable, "-c", "import re\n" + _ASM_SCRIPT], env=env, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     found = dict(line.split(" ", 1) for line in proc.stdout.splitlines() if line.split(" ")[0] in
-                 ("POLICY", "PACKED_FMA0", "GATHERS0", "PACKED_FMA4", "GATHERS4"))
+                 ("POLICY", "AVX2", "PACKED_FMA0", "GATHERS0", "PACKED_FMA4", "GATHERS4", "NARROW_FMA0", "NARROW_FMA4"))
+    wide = found["AVX2"] == "1"
     for model in (0, 4):
         assert int(found[f"PACKED_FMA{model}"]) >= 4, found
+        if wide:
+            assert int(found[f"NARROW_FMA{model}"]) == 0, found
         if found["POLICY"] == "lane by lane":
             assert int(found[f"GATHERS{model}"]) == 0, found
 
