@@ -118,7 +118,9 @@ def lanes_step(l32, b32, l64, b64, step, ert):
     """Pass 1 (vectorised): each lane whose next segment ``[t, tnext]`` is a full step that ends
     before the ray does, whose midpoint lies in the current non-empty block and whose transmittance
     is still above ``ert`` takes it: its sample position is written and ``t`` moves on. Other lanes
-    are left to :func:`lanes_fix`."""
+    are left to :func:`lanes_fix`. Returns how many lanes moved (all of them: no lane for
+    :func:`lanes_fix` this step, the common case)."""
+    moved = 0
     for k in range(LANES):
         t = l64[np.uint64(b64 + TS * LANES + k)]
         tn = l64[np.uint64(b64 + TN * LANES + k)]
@@ -141,6 +143,8 @@ def lanes_step(l32, b32, l64, b64, step, ert):
         l32[np.uint64(b32 + ACT * LANES + k)] = np.float32(1.0) if ok else np.float32(0.0)
         l64[np.uint64(b64 + TS * LANES + k)] = tn if ok else t
         l64[np.uint64(b64 + TN * LANES + k)] = tn + step if ok else tn
+        moved += 1 if ok else 0
+    return moved
 
 
 @scalar
@@ -428,8 +432,8 @@ def packet_driver(model):
                 for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
                     packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
                     while True:
-                        lanes_step(l32, b32, l64, b64, step, ert)
-                        if lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
+                        if lanes_step(l32, b32, l64, b64, step, ert) < LANES and lanes_fix(
+                                model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
                             break
                         sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)  # noqa: F821
                     packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
