@@ -9,7 +9,9 @@ termination and jitter — split in three passes per step of the packet:
    non-empty majorant block moves to it — the common case;
 2. :func:`lanes_fix` (scalar): the other lanes do what :func:`.raycast.march_pixel` does at a block
    boundary, on a partial segment (the jittered first, the last: ``exp`` of the table's σt)
-   and at the end of the ray, until each has a full segment to sample or is done;
+   and at the end of the ray, until each has a full segment to sample or is done — called only on
+   a step where pass 1 left a lane (a call with the scene's records and a scalar loop over the
+   lanes is what most steps of a packet do not need);
 3. :func:`lanes_sample_ea`, or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
    :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
    functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
