@@ -15,19 +15,21 @@ termination and jitter — split in three passes per step of the packet:
 3. :func:`lanes_sample_ea`, or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
    :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
    functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
-   :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms, :func:`.raycast.lit_table_source`)
-   into float32 lane fields, then :func:`lanes_composite` composites them (float64).
+   :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms,
+   :func:`.raycast.lit_table_source`) into float32 lane fields, then :func:`lanes_composite`
+   composites them (float64).
 
 Lane state is a flat structure of arrays per thread (float32 positions for the sample and the
 sample's opacity and source, float64 ray state and sums: float64 where sums accumulate), indexed
-with unsigned integers. Why these rules: LLVM vectorises a lane loop only when its addresses are affine in the lane (Numba's
-negative-index wraparound of a signed index is not), when its body is branch-free (selects) and
-when Numba marks the arrays ``noalias`` — which it does for a ``prange`` body with no aliasing
-assignments, so the vectorised passes are inlined into the driver and create no array views,
-tuples or booleans there. LLVM also picks one vector width per loop, from the widest type the loop
-loads or stores: a loop that touches a float64 field runs 4 lanes per 256-bit instruction, a
-float32-only one 8, so the loops that hold the gathers touch no float64. ``tests/kernels/test_packet.py`` compiles the driver outside the disk
-cache and checks that vector FMAs are in its assembly.
+with unsigned integers. Why these rules: LLVM vectorises a lane loop only when its addresses are
+affine in the lane (Numba's negative-index wraparound of a signed index is not), when its body is
+branch-free (selects) and when Numba marks the arrays ``noalias`` — which it does for a ``prange``
+body with no aliasing assignments, so the vectorised passes are inlined into the driver and create
+no array views, tuples or booleans there. LLVM also picks one vector width per loop, from the
+widest type the loop loads or stores: a loop that touches a float64 field runs 4 lanes per 256-bit
+instruction, a float32-only one 8, so the loops that hold the gathers touch no float64.
+``tests/kernels/test_packet.py`` compiles the driver outside the disk cache and checks that vector
+FMAs, none of them 128-bit, are in its assembly.
 
 Which models and media (:func:`applies`): emission–absorption, and single scattering, ambient
 scattering and diffusion with baked in-scattering, of a LUT-mode (table) transfer function; every other case runs the scalar
