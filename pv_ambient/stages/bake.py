@@ -33,7 +33,25 @@ def incident_slots(kinds) -> list:
     return out
 
 
-def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=None, reuse=None) -> tuple:
+def rows_apply(model_id, records, grid, phis) -> bool:
+    """Whether :func:`pv_ambient._kernels.bake_rows.bake_rows` bakes these lights (its module
+    docstring): the light grid on the data samples, the Beer–Lambert front, a D table without an
+    angle axis and an isotropic phase function (every light then sees 1/4π)."""
+    from .._kernels.models import AMBIENT_SCATTERING
+    from .._kernels.phase import INV_4PI, phase_eval
+
+    lrec, grec, arec = records
+    shape = tuple(grid.shape)
+    ball = model_id != AMBIENT_SCATTERING or (
+        tuple(arec.ball.shape) == shape + (4,) and arec.D.ndim == 3 and arec.D.shape[2] == 1
+        and arec.D.shape[1] >= 3 and arec.a_nodes.shape[0] >= 2)
+    return bool(phis is None and ball and min(shape) >= 2 and np.all(np.asarray(grid.lo) == 0.0)
+                and np.all(np.asarray(grid.step) == 1.0)
+                and all(phase_eval(lrec.pkind, lrec.g, c) == INV_4PI for c in (-1.0, 0.0, 1.0)))
+
+
+def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=None, reuse=None,
+                  driver="rows") -> tuple:
     """The in-scattered light of the lights per unit albedo at the nodes of ``grid``, ``(array,
     nch)``: float32 (m0, m1, m2, slots·nch), a slot per point light (times d²) and one for the
     directional lights (:func:`incident_slots`), ``nch`` from :func:`incident_channels`
@@ -46,7 +64,9 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     own volumes, so no stacked copy of every light's volumes is made. ``reuse`` maps a light's index
     to a slot array already baked for it with everything else equal (a relight: the lights that did
     not move), copied instead of baked. ``diffusion`` is a diffusion field on the data samples,
-    which must be the light-grid nodes, added as ``max(φ, 0)/4π`` to the last slot."""
+    which must be the light-grid nodes, added as ``max(φ, 0)/4π`` to the last slot. ``driver``:
+    ``"rows"`` bakes in vectorised chunks of a row where :func:`rows_apply` holds
+    (:mod:`pv_ambient._kernels.bake_rows`), ``"nodes"`` node by node everywhere (the rule it follows)."""
     from .._kernels.bake import bake_diffusion
     from .._kernels.bake import bake_incident as bake
     from .medium import stack_volumes
@@ -57,6 +77,13 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     nslots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
     out = np.zeros(tuple(grid.shape) + (nslots * nch,), np.float32)
     reuse = reuse or {}
+    if driver not in ("rows", "nodes"):
+        raise ValueError(f"driver must be 'rows' or 'nodes', got {driver!r}")
+    rows = driver == "rows" and rows_apply(model_id, records, grid, phis)
+    if rows:
+        from .._kernels.bake_rows import bake_rows, scratch
+
+        chunks = scratch()
     for j in range(len(lrec.kind)):
         q = slots[j] * nch
         if j in reuse and reuse[j].shape[-1] == nch:
@@ -65,6 +92,10 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
         one = lrec._replace(kind=lrec.kind[j:j + 1].copy(), vec=lrec.vec[j:j + 1].copy(),
                             power=lrec.power[j:j + 1].copy())
         tau = stack_volumes([taus[j]])
+        if rows:
+            bake_rows(model_id, one, tau, arec.ball, arec.D, arec.a_nodes, float(arec.radius), float(arec.tau_lo_log),
+                      float(arec.tau_dlog), geometry.world_to_index, geometry.index_to_world, nch, q, out, chunks)
+            continue
         phi = tau if phis is None else stack_volumes([phis[j]])
         bake(model_id, one, grec._replace(tau=tau, phi=phi), arec, geometry.world_to_index, geometry.index_to_world,
              grid.lo, grid.step, nch, q, out)

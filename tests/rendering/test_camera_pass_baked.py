@@ -159,6 +159,7 @@ def test_relight_rebakes_only_the_moved_light():
     # two point lights and a directional one, one point light moved: the other point light's slot
     # is copied from the previous bake (not baked again), and the image equals a fresh renderer's
     from pv_ambient._kernels import bake as kernels
+    from pv_ambient._kernels import bake_rows as row_kernels
 
     still = PointLight((-0.2, 0.15, 0.1), intensity=0.7)
     lights = [PointLight((0.05, 0.0, -0.1), intensity=(1.0, 0.8, 0.6)), still, LIGHTS[1]]
@@ -167,17 +168,17 @@ def test_relight_rebakes_only_the_moved_light():
     moved = [PointLight((0.1, -0.05, -0.1), intensity=(1.0, 0.8, 0.6)), still, LIGHTS[1]]
     r.set_lights(moved)
     calls = []
-    bake = kernels.bake_incident
+    bake, bake_rows = kernels.bake_incident, row_kernels.bake_rows
 
-    def counting(model, lrec, *args):
+    def counting(model, lrec, *args):  # either driver (pv_ambient.stages.bake.rows_apply)
         calls.append(tuple(np.asarray(lrec.vec[0]).tolist()))
-        return bake(model, lrec, *args)
+        return (bake_rows if len(args) > 11 else bake)(model, lrec, *args)
 
-    kernels.bake_incident = counting
+    kernels.bake_incident = row_kernels.bake_rows = counting
     try:
         again = render(r, "ambient_scattering", True).radiance
     finally:
-        kernels.bake_incident = bake
+        kernels.bake_incident, row_kernels.bake_rows = bake, bake_rows
     assert calls == [moved[0].position, tuple(np.asarray(LIGHTS[1].direction).tolist())]  # not `still`
     (key, (inc, nch)), = r.cache.items("incident")
     assert inc.shape[3] == 3 * nch

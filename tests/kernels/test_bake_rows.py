@@ -1,0 +1,112 @@
+"""Tests pv_ambient/_kernels/bake_rows.py: the bake of one light in vectorised chunks of a row
+equals the node-by-node rule (pv_ambient/_kernels/bake.py, ``driver="nodes"``) it follows, for
+point lights inside and outside the box, a directional light, grey and coloured lights and
+albedos, single and ambient scattering, on a grid of unequal sides and spacings; the cases it
+does not cover take the node rule; and ``log_pos`` against ``math.log``."""
+
+import math
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_ambient as pa
+import pv_ambient.stages.bake as stage_bake
+from pv_ambient.inputs.lights import DirectionalLight, PointLight
+
+from ..helpers import CAM, SIZE
+
+
+def coloured_grid(albedo_span=(0.0, 1.0)):
+    """σt a noisy blob on a box of unequal sides and spacings; the albedo varies per channel over
+    ``albedo_span`` (its ends included: the D table's clamps)."""
+    dims = (11, 14, 9)
+    g = pv.ImageData(dimensions=dims, spacing=(0.2, 0.15, 0.25), origin=(-1.0, -1.0, -1.0))
+    rng = np.random.default_rng(4)
+    p = g.points
+    base = np.clip(1.0 - np.linalg.norm(p, axis=1) / 1.2, 0, None) * (0.4 + rng.random(g.n_points))
+    g["sigma_t"] = (6.0 * base).astype(np.float32)
+    lo, hi = albedo_span
+    a = np.clip(rng.uniform(lo - 0.1, hi + 0.1, (g.n_points, 3)), lo, hi)
+    g["albedo"] = a.astype(np.float32)
+    g["emission"] = np.zeros((g.n_points, 3), np.float32)
+    return g
+
+
+def captured_bakes(grid, lights, model):
+    """The arguments of every stage-level bake of a balanced render (the bake on)."""
+    calls = []
+    orig = stage_bake.bake_incident
+
+    def spy(*args, **kw):
+        calls.append((args, kw))
+        return orig(*args, **kw)
+
+    stage_bake.bake_incident = spy
+    try:
+        r = pa.Renderer(grid, transfer_function=pa.TransferFunction.physical(), lights=lights)
+        res = r.render(camera=CAM, window_size=SIZE, model=model, quality="balanced", light_resolution=1.0)
+    finally:
+        stage_bake.bake_incident = orig
+    assert res.metadata["baked_lights"]
+    return calls
+
+
+LIGHT_SETS = {
+    "point inside, coloured": [PointLight((0.1, -0.2, 0.05), intensity=(3.0, 2.5, 2.0))],
+    "point outside, grey": [PointLight((0.3, -1.6, 0.9), intensity=2.0)],
+    "directional + point": [DirectionalLight((0.2, 0.3, -1.0), irradiance=0.5),
+                            PointLight((-0.4, 0.3, 0.2), intensity=(1.0, 0.8, 0.6))],
+}
+
+
+@pytest.mark.parametrize("model", ["single_scattering", "ambient_scattering"])
+@pytest.mark.parametrize("lights", list(LIGHT_SETS))
+def test_rows_equal_the_node_rule(model, lights):
+    # exp and log by polynomials (1e-13, 1e-15) and the last cell at fraction 1: equal to float32
+    # rounding of the baked value
+    calls = captured_bakes(coloured_grid(), LIGHT_SETS[lights], model)
+    assert calls
+    for args, kw in calls:
+        model_id, records, _, grid = args[:4]
+        assert stage_bake.rows_apply(model_id, records, grid, kw.get("phis"))
+        rows, nch = stage_bake.bake_incident(*args, **kw, driver="rows")
+        nodes, nch_n = stage_bake.bake_incident(*args, **kw, driver="nodes")
+        assert nch == nch_n and rows.shape == nodes.shape
+        assert np.abs(rows - nodes).max() <= 1e-6 * np.abs(nodes).max()
+        assert np.abs(nodes).max() > 0
+
+
+def test_grey_albedo_bakes_one_channel_alike():
+    g = coloured_grid()
+    g["albedo"] = np.full((g.n_points, 3), 0.7, np.float32)
+    for args, kw in captured_bakes(g, LIGHT_SETS["point outside, grey"], "ambient_scattering"):
+        rows, nch = stage_bake.bake_incident(*args, **kw, driver="rows")
+        nodes, _ = stage_bake.bake_incident(*args, **kw, driver="nodes")
+        assert nch == 1
+        assert np.abs(rows - nodes).max() <= 1e-6 * np.abs(nodes).max()
+
+
+def test_cases_outside_the_rows_take_the_node_rule():
+    # a light grid finer than the data, or the tube front: rows_apply says no and the default
+    # driver gives the node rule's array itself
+    calls = captured_bakes(coloured_grid(), LIGHT_SETS["point inside, coloured"], "ambient_scattering")
+    args, kw = calls[0]
+    model_id, records, geometry, grid = args[:4]
+    assert not stage_bake.rows_apply(model_id, records, grid, [np.zeros(tuple(grid.shape) + (3,), np.float32)])
+    from pv_ambient.stages.propagation import make_light_grid
+
+    fine = make_light_grid(geometry, 2.0)
+    assert not stage_bake.rows_apply(model_id, records, fine, None)
+    with pytest.raises(ValueError, match="driver"):
+        stage_bake.bake_incident(*args, **kw, driver="fast")
+
+
+def test_log_pos_against_math_log():
+    from pv_ambient._kernels.expneg import log_pos
+
+    rng = np.random.default_rng(0)
+    values = np.concatenate([10.0 ** rng.uniform(-300, 300, 2000), rng.uniform(0.5, 2.0, 2000),
+                             [1.0, 2.0, 0.5, math.sqrt(2.0), np.nextafter(math.sqrt(2.0), 2.0), 1e-5, 17.5]])
+    err = max(abs(log_pos(float(v)) - math.log(v)) / max(1.0, abs(math.log(v))) for v in values)
+    assert err <= 1e-15
