@@ -120,6 +120,12 @@ class DeviceCache:
         self._items[id(arr)] = (arr, dev, self._launch)
         self._forget_records({id(arr)})  # after the new copy is in: the memo then drops the old one
 
+    def forget(self, arr):
+        """Drop the device copy of host array ``arr`` (changed in place on the host: the next use
+        uploads it again) and the records that held it."""
+        if self._items.pop(id(arr), None) is not None:
+            self._forget_records({id(arr)})
+
     def args(self, args, extra_bytes=0):
         """``args`` (records and values) with every numpy array, at any depth of its records,
         replaced by its device copy: records seen before are found whole, by :func:`_record_key`;

@@ -224,6 +224,24 @@ def test_device_cache_maps_a_record_once_and_asks_for_memory_only_to_upload(monk
     assert seen["queries"] == 2  # a new upload: asked again
 
 
+def test_device_cache_forgets_an_array_changed_in_place(monkeypatch):
+    # a relight rebakes the in-scattered light in place (SceneStages.incident): the device copy
+    # and the records holding it must go, and the next use uploads the new contents
+    from pv_ambient._kernels.records import LightGrid
+
+    seen = _device_stand_in(monkeypatch)
+    cache = bk.DeviceCache()
+    big = np.ones((32, 32, 32), np.float32)
+    grid = LightGrid(np.zeros(3), np.ones(3), big, big, big[:1, :1, :1, None], 0)
+    first = cache.args((grid,))[0]
+    uploads = len(seen["uploads"])
+    big[...] = 2.0
+    cache.forget(big)
+    again = cache.args((grid,))[0]
+    assert again is not first and seen["uploads"][uploads:].count(big.nbytes) == 1  # uploaded once more
+    cache.forget(np.ones(3))  # an array it never held: nothing happens
+
+
 def test_device_cache_refuses_before_uploading(monkeypatch):
     seen = _device_stand_in(monkeypatch)
     monkeypatch.setattr(dcache, "free_device_memory", lambda: 1000.0)

@@ -184,8 +184,9 @@ def d_node(D, a_nodes, it, tt, na, a):
 
 
 @scalar(inline=True)
-def chunk_store(model, D, a_nodes, nch, q0, ui, uj, k0, m2, s, b, out):
-    """Pass 3: ``(E T p + E Φ D)·max(d², d2min)`` of the chunk's nodes in the row added to slot ``q0``."""
+def chunk_store(model, D, a_nodes, nch, q0, add, ui, uj, k0, m2, s, b, out):
+    """Pass 3: ``(E T p + E Φ D)·max(d², d2min)`` of the chunk's nodes in the row added to slot
+    ``q0`` (``add``), or written there."""
     n = min(CHUNK, m2 - k0)
     uq0 = np.uint64(q0)
     for q in range(n):
@@ -204,17 +205,19 @@ def chunk_store(model, D, a_nodes, nch, q0, ui, uj, k0, m2, s, b, out):
                                                                s[np.uint64(b + AG * CHUNK + q)])
                 sb += s[np.uint64(b + FB * CHUNK + q)] * d_node(D, a_nodes, it, tt, s[np.uint64(b + NB * CHUNK + q)],
                                                                s[np.uint64(b + AB * CHUNK + q)])
-        out[ui, uj, k, uq0] += sr * d2c
+        keep = 1.0 if add else 0.0
+        out[ui, uj, k, uq0] = keep * out[ui, uj, k, uq0] + sr * d2c
         if nch == 3:
-            out[ui, uj, k, uq0 + np.uint64(1)] += sg * d2c
-            out[ui, uj, k, uq0 + np.uint64(2)] += sb * d2c
+            out[ui, uj, k, uq0 + np.uint64(1)] = keep * out[ui, uj, k, uq0 + np.uint64(1)] + sg * d2c
+            out[ui, uj, k, uq0 + np.uint64(2)] = keep * out[ui, uj, k, uq0 + np.uint64(2)] + sb * d2c
 
 
 @driver
-def bake_rows(model, lights, tau, ball, D, a_nodes, radius, tau_lo_log, tau_dlog, w2i, i2w, nch, q0, out, s):
+def bake_rows(model, lights, tau, ball, D, a_nodes, radius, tau_lo_log, tau_dlog, w2i, i2w, nch, q0, add, out, s):
     """Adds light 0 of ``lights`` (one point or directional light) to slot ``q0`` of ``out`` (m0, m1,
-    m2, slots·nch), its nodes the data samples: :func:`.bake.bake_incident` for the case of this
-    module's docstring, in chunks of a row. ``tau`` (m0, m1, m2, 1) the light's optical depth
+    m2, slots·nch) — or, ``add`` false, writes it there — its nodes the data samples:
+    :func:`.bake.bake_incident` for the case of this module's docstring, in chunks of a row. ``tau``
+    (m0, m1, m2, 1) the light's optical depth
     (its front too), ``ball`` (m0, m1, m2, 4) and ``D`` (n_a, n_tau, 1) read by ambient scattering;
     ``s`` :func:`scratch`."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
@@ -235,4 +238,4 @@ def bake_rows(model, lights, tau, ball, D, a_nodes, radius, tau_lo_log, tau_dlog
                     chunk_front(lights, point, tau, ball, w2i, i2w, radius, n_tau, tau1, tau_lo_log, tau_dlog, ui, uj,
                                 k0, m2, s, b)
                     chunk_albedo(a_nodes, nch, s, b)
-                chunk_store(model, D, a_nodes, nch, q0, ui, uj, k0, m2, s, b, out)
+                chunk_store(model, D, a_nodes, nch, q0, add, ui, uj, k0, m2, s, b, out)

@@ -141,6 +141,8 @@ class Renderer:
         self._lights_pending = needs_camera(lights)
         self._light_spec = lights if self._lights_pending else None
         self.lights = () if self._lights_pending else as_lights(lights, center=self._center())
+        if not self._lights_pending:
+            self.stages.keep_lights(self.lights)
 
     def place_lights(self, camera):
         """Place lights that wait for a camera (the default rig, pyvista head/camera lights) with
@@ -148,6 +150,7 @@ class Renderer:
         if self._lights_pending:
             self.lights = as_lights(self._light_spec, center=self._center(), camera=camera)
             self._lights_pending, self._light_spec = False, None
+            self.stages.keep_lights(self.lights)
         return self.lights
 
     def _center(self):

@@ -185,6 +185,26 @@ class SceneStages:
                 self.sigma_on_light_grid(grid), grid, self.geometry, light, device_cache=self.device_for(backend)))
         return self.cache[key]
 
+    def keep_lights(self, lights):
+        """Drop the per-light entries (optical depths, tube fronts, reach checks, diffusion
+        solutions) of lights not in ``lights``: a relight keeps the volumes of the lights that stay
+        and, of the lights that left, only the latest diffusion solution per grid and options — the
+        warm start of the light that moved (:meth:`warm_start`). Why: every light position a drag
+        visits would otherwise keep its volumes (a 256³ optical depth is 67 MB) for the life of
+        the renderer."""
+        current = set(lights)
+        for key in self.cache.keys():
+            if key[0] in ("tau", "front", "reaches") and key[1] not in current:
+                del self.cache[key]
+            elif key[0] == "diffusion_sum" and any(part[1] not in current for part in key[1]):
+                del self.cache[key]
+        for kind in ("diffusion", "diffusion_start"):
+            gone = [k for k in self.cache.keys(kind) if k[1] not in current]
+            latest = {k[2:]: k for k in gone}  # the cache keeps insertion order: the last one wins
+            for key in gone:
+                if latest[key[2:]] != key:
+                    del self.cache[key]
+
     def scattering_nodes(self, grid):
         """The light-grid nodes nearest to a data sample that scatters (cached)."""
         from ..stages.medium import scattering_nodes
@@ -270,19 +290,31 @@ class SceneStages:
 
         key = ("incident", tuple(lights), grid.key()) + tuple(key)
         if key not in self.cache:
-            reuse = {}
+            reuse, into = {}, None
+            kinds = [0 if isinstance(lt, PointLight) else 1 for lt in lights]
             for old in self.cache.keys("incident"):
                 if old[2:] != key[2:]:
                     continue
                 inc, nch = self.cache[old]
                 old_lights = old[1]
-                old_slots = incident_slots([0 if isinstance(lt, PointLight) else 1 for lt in old_lights])
+                old_kinds = [0 if isinstance(lt, PointLight) else 1 for lt in old_lights]
+                old_slots = incident_slots(old_kinds)
+                if old_kinds == kinds:
+                    # the same slots: rebaked in place, the lights that kept their index kept
+                    # (stages.bake.bake_incident's ``into``); the cache no longer holds it, nor the GPU
+                    into = inc
+                    reuse = {j: inc[..., old_slots[j] * nch:(old_slots[j] + 1) * nch] for j, lt in enumerate(lights)
+                             if kinds[j] == 0 and lt == old_lights[j]}
+                    del self.cache[old]
+                    if self._device.cache is not None:
+                        self._device.cache.forget(inc)
+                    break
                 for j, lt in enumerate(lights):
                     if isinstance(lt, PointLight) and lt in old_lights:
                         q = old_slots[old_lights.index(lt)] * nch
                         reuse[j] = inc[..., q:q + nch]
             value = self._timed("baked in-scattering", lambda: bake_incident(model_id, records, self.geometry, grid,
-                                                                             taus, phis, diffusion, reuse))
+                                                                             taus, phis, diffusion, reuse, into=into))
             self._replace("incident", key, value)
         return self.cache[key]
 

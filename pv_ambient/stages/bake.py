@@ -51,7 +51,7 @@ def rows_apply(model_id, records, grid, phis) -> bool:
 
 
 def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=None, reuse=None,
-                  driver="rows") -> tuple:
+                  driver="rows", into=None) -> tuple:
     """The in-scattered light of the lights per unit albedo at the nodes of ``grid``, ``(array,
     nch)``: float32 (m0, m1, m2, slots·nch), a slot per point light (times d²) and one for the
     directional lights (:func:`incident_slots`), ``nch`` from :func:`incident_channels`
@@ -64,7 +64,10 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     own volumes, so no stacked copy of every light's volumes is made. ``reuse`` maps a light's index
     to a slot array already baked for it with everything else equal (a relight: the lights that did
     not move), copied instead of baked. ``diffusion`` is a diffusion field on the data samples,
-    which must be the light-grid nodes, added as ``max(φ, 0)/4π`` to the last slot. ``driver``:
+    which must be the light-grid nodes, added as ``max(φ, 0)/4π`` to the last slot. ``into``: the
+    bake this one replaces, rebaked in place — its slots of the lights in ``reuse`` kept as they
+    are, the others (and the directional lights' slot) baked again — where it has this bake's
+    shape (the same kinds of light in the same order and channels); else a new array. ``driver``:
     ``"rows"`` bakes in vectorised chunks of a row where :func:`rows_apply` holds
     (:mod:`pv_ambient._kernels.bake_rows`), ``"nodes"`` node by node everywhere (the rule it follows)."""
     from .._kernels.bake import bake_diffusion
@@ -75,26 +78,38 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     nch = incident_channels(lrec.power, arec.ball, diffusion)
     slots = incident_slots(lrec.kind)
     nslots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
-    out = np.zeros(tuple(grid.shape) + (nslots * nch,), np.float32)
-    reuse = reuse or {}
+    shape = tuple(grid.shape) + (nslots * nch,)
+    reuse = {j: v for j, v in (reuse or {}).items() if v.shape[-1] == nch}
     if driver not in ("rows", "nodes"):
         raise ValueError(f"driver must be 'rows' or 'nodes', got {driver!r}")
     rows = driver == "rows" and rows_apply(model_id, records, grid, phis)
+    in_place = into is not None and into.shape == shape and into.dtype == np.float32 and into.flags.c_contiguous
+    out = into if in_place else np.zeros(shape, np.float32)
+    if in_place:
+        # a slot baked again starts from 0, except a point light's slot that the row driver writes
+        # whole; a kept slot must be this array's own (a light that kept its index)
+        reuse = {j: v for j, v in reuse.items() if np.shares_memory(v, out)}
+        for q in sorted({slots[j] for j in range(len(lrec.kind)) if j not in reuse
+                         and not (rows and lrec.kind[j] == 0)} | ({nslots - 1} if diffusion is not None else set())):
+            out[..., q * nch:(q + 1) * nch] = 0.0
     if rows:
         from .._kernels.bake_rows import bake_rows, scratch
 
         chunks = scratch()
     for j in range(len(lrec.kind)):
         q = slots[j] * nch
-        if j in reuse and reuse[j].shape[-1] == nch:
-            out[..., q:q + nch] = reuse[j]
+        if j in reuse:
+            if not in_place:
+                out[..., q:q + nch] = reuse[j]
             continue
         one = lrec._replace(kind=lrec.kind[j:j + 1].copy(), vec=lrec.vec[j:j + 1].copy(),
                             power=lrec.power[j:j + 1].copy())
         tau = stack_volumes([taus[j]])
         if rows:
+            # a point light's slot is its own: written, not added (nothing to clear first)
             bake_rows(model_id, one, tau, arec.ball, arec.D, arec.a_nodes, float(arec.radius), float(arec.tau_lo_log),
-                      float(arec.tau_dlog), geometry.world_to_index, geometry.index_to_world, nch, q, out, chunks)
+                      float(arec.tau_dlog), geometry.world_to_index, geometry.index_to_world, nch, q,
+                      not (in_place and lrec.kind[j] == 0), out, chunks)
             continue
         phi = tau if phis is None else stack_volumes([phis[j]])
         bake(model_id, one, grec._replace(tau=tau, phi=phi), arec, geometry.world_to_index, geometry.index_to_world,

@@ -235,8 +235,9 @@ def test_a_camera_move_recomputes_nothing_view_independent(scene, monkeypatch):
         assert records[-1][5].tau.size == 1 and not [k for k in r.cache if k[0] == "tau_stack"]  # placeholders
         relit = lts[:-1] + [pa.PointLight((0.5, 0.5, 1.5), intensity=3.0)]
         r.set_lights(relit)
+        baked = inc1.copy()
         got = r.render(camera=cam, window_size=(16, 12), model=model)
-        assert records[-1][5].inc is not inc1
+        assert not np.array_equal(records[-1][5].inc, baked)  # rebaked (in place: SceneStages.incident)
         ref = pa.Renderer(grid, transfer_function=tf, lights=relit).render(camera=cam, window_size=(16, 12),
                                                                            model=model)
         assert np.array_equal(got.radiance, ref.radiance) and not np.array_equal(got.radiance, moved.radiance)

@@ -89,6 +89,25 @@ def tight_solves(monkeypatch):
     monkeypatch.setitem(QUALITY_PRESETS["preview"], "diffusion_tol", 1e-6)
 
 
+def test_relights_keep_only_the_current_lights_volumes():
+    # a drag visits many light positions: each relight drops the volumes of the lights that left,
+    # keeping only the latest diffusion solution of a light that left (the next warm start)
+    r = renderer(physical_grid())
+    render(r, "diffusion")
+    render(r, "ambient_scattering", propagation="tube")
+    for k in range(4):
+        moved = PointLight((-0.3 + 0.05 * k, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
+        r.set_lights([moved, LIGHTS[1]])
+        render(r, "diffusion")
+        render(r, "ambient_scattering", propagation="tube")
+        for kind in ("tau", "front", "reaches"):
+            assert {k[1] for k in r.cache.keys(kind)} == {moved, LIGHTS[1]}, kind
+        solved = [k[1] for k in r.cache.keys("diffusion")]
+        assert len(solved) == 3 and moved in solved and LIGHTS[1] in solved  # and the one that left last
+    r.set_lights([LIGHTS[1]])
+    assert {k[1] for k in r.cache.keys("tau")} == {LIGHTS[1]}
+
+
 def test_relight_starts_warm_from_the_moved_light(monkeypatch):
     """A relight's solve starts from the moved light's solution (docs/diffusion.rst, "Warm starts"):
     fewer CG iterations than the cold solve of the same light in a new renderer, and the same φ
