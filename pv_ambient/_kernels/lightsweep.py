@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from ._jit import driver, prange, scalar
 from .lightvol import TIE, dominant_axis, lateral_range, node_tau, sweep_start, wlen
@@ -128,27 +129,38 @@ def row_run(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, ca, cb, nstep, f
         s11 = sig[ia + 1, jb + 1]
         Rn = R[n]
         for c in range(rlo, rhi + 1):
-            e0 = s00[c] + fa * (s10[c] - s00[c])
-            e1 = s01[c] + fa * (s11[c] - s01[c])
-            Rn[c] = e0 + fb * (e1 - e0)
+            u = np.uint64(c)  # unsigned: no negative-index wraparound, so the loop vectorises
+            e0 = s00[u] + fa * (s10[u] - s00[u])
+            e1 = s01[u] + fa * (s11[u] - s01[u])
+            Rn[u] = e0 + fb * (e1 - e0)
         Rn[nc] = Rn[nc - 1]
-    # march_tau's trapezoid for every node of the run at once (sample n outer: a loop along c)
+    # march_tau's trapezoid for every node of the run
     acc = R[R.shape[0] - 1]
     top = nc - 1.0
-    for c in range(ca, cb + 1):
-        acc[c] = 0.0
-    for n in range(nstep + 1):
-        t = n * dt if n < nstep else f
-        wgt = 0.5 if (n == 0 or n == nstep) else 1.0
-        Rn = R[n]
-        if is_point:
-            for c in range(ca, cb + 1):
+    if is_point:
+        # node outer, samples inner: a sum held in a register, which LLVM vectorises over the
+        # samples with gathers (a loop along c that adds into ``acc`` stays scalar: its gathers
+        # from R might alias the stores)
+        for c in range(ca, cb + 1):
+            total = 0.0
+            for n in range(nstep + 1):
+                t = n * dt if n < nstep else f
+                wgt = 0.5 if (n == 0 or n == nstep) else 1.0
                 w = min(max(c + t * (l2 - c), 0.0), top)
-                j = int(w)
-                acc[c] += wgt * (Rn[j] + (w - j) * (Rn[j + 1] - Rn[j]))
-        else:
-            # a directional light: the sample sits at a fixed offset o + fo from every node; the
-            # nodes whose sample needs no clamp form the range [m0, m1]
+                j = np.uint64(np.uint32(w))
+                a = R[n, j]
+                total += wgt * (a + (w - float(j)) * (R[n, j + np.uint64(1)] - a))
+            acc[np.uint64(c)] = total
+    else:
+        # a directional light: sample n sits at a fixed offset o + fo from every node (sample n
+        # outer: a loop along c, a two-tap stencil); the nodes whose sample needs no clamp form
+        # the range [m0, m1]
+        for c in range(ca, cb + 1):
+            acc[np.uint64(c)] = 0.0
+        for n in range(nstep + 1):
+            t = n * dt if n < nstep else f
+            wgt = 0.5 if (n == 0 or n == nstep) else 1.0
+            Rn = R[n]
             off = t * l2
             o = int(math.floor(off))
             fo = off - o
@@ -164,7 +176,8 @@ def row_run(sig, B, is_point, l0, l1, l2, axis, k, J, prev, ib, ca, cb, nstep, f
             w0 = wgt * (1.0 - fo)
             w1 = wgt * fo
             for c in range(m0, m1 + 1):
-                acc[c] += w0 * Rn[c + o] + w1 * Rn[c + o + 1]
+                u = np.uint64(c + o)
+                acc[np.uint64(c)] += w0 * Rn[u] + w1 * Rn[u + np.uint64(1)]
     # the layer J back's b coordinate, shared by the row (lightvol._bilerp_layer, clamped alike)
     ub, fub = lerp_coord(pb, nb)
     pq0 = prev[ub]
