@@ -1,19 +1,21 @@
-"""The bake of one light in vectorised chunks of a row (docs/performance.rst, "The bake"): what
-:func:`.bake.bake_node` computes for a light grid on the data samples, a point or directional
-light, the Beer–Lambert front and a D table without an angle axis — the default of an isotropic
-phase function — as loops over :data:`CHUNK` nodes of a row that LLVM turns into SIMD code.
+"""The bake of one light in vectorised chunks of a row (docs/performance.rst, "Relight: the
+bake"): what :func:`.bake.bake_node` computes for a light grid on the data samples, a point or
+directional light, the Beer–Lambert front and a D table without an angle axis — the default of an
+isotropic phase function — as loops over :data:`CHUNK` nodes of a row that LLVM turns into SIMD
+code.
 
-The node's rule is :func:`.bake.bake_node`'s, pass by pass:
+The node's rule is :func:`.bake.bake_node`'s, pass by pass (:func:`bake_rows`):
 
-1. :func:`chunk_light` — per node its world position, the light's irradiance and direction
-   (:func:`.raycast.light_at`), the direct term ``E T p``, the ball's entry point ``x − s·ω``
-   (:func:`.raycast.ball_entry`), the front ``Φ = e^{−τ}`` there (trilinear, clamped as
-   :func:`.interp.cell_coords` clamps: the last cell with fraction 1 where it takes the last node),
-   and the τ coordinate of D (:func:`.preint.tau_coord` in selects);
-2. :func:`chunk_albedo` — each channel's albedo node, counted (:func:`.preint.albedo_coord`'s
-   search, branch-free);
-3. :func:`chunk_store` — D at the node's τ and albedo (:func:`.raycast.d_lookup3` without θ) and
-   ``(E T p + E Φ D)·max(d², d2min)`` added to the slot.
+1. :func:`chunk_direct` — per node its world position, the light's irradiance and direction
+   (:func:`.raycast.light_at`), the direct term ``E T p``;
+2. :func:`chunk_front` (ambient scattering) — the ball's entry point ``x − s·ω``
+   (:func:`.raycast.ball_entry`) and ``E Φ`` with the front ``Φ = e^{−τ}`` there (trilinear,
+   clamped as :func:`.interp.cell_coords` clamps: the last cell with fraction 1 where it takes the
+   last node);
+3. :func:`chunk_store` — ``(E T p + E Φ D)·max(d², d2min)`` added to (or written in) the slot, D
+   read per node from :func:`ball_d_rows`' array: D(r σ̄, ā) does not depend on the lights, so it
+   is computed once per transfer function, not per light (:func:`.raycast.d_lookup3` without θ —
+   :func:`.preint.tau_coord` in selects, the albedo node counted instead of searched).
 
 What differs from the scalar rule: ``exp`` and ``log`` are :func:`.expneg.exp_neg` and
 :func:`.expneg.log_pos` (relative 1e-13 and 1e-15 of ``math``'s; a libm call keeps a loop scalar),
@@ -95,23 +97,12 @@ def chunk_direct(lights, point, tau, i2w, p, ui, uj, k0, m2, s, b):
 
 
 @scalar(inline=True)
-def chunk_front(lights, point, tau, ball, w2i, i2w, radius, n_tau, tau1, tau_lo_log, tau_dlog, ui, uj, k0, m2, s, b):
-    """Pass 1, ambient scattering: the ball's albedos, D's τ coordinate (:func:`.preint.tau_coord`
-    in selects) and ``E Φ`` per channel, Φ read at the ball's entry point."""
-    lpow = lights.power
-    n0 = tau.shape[0]
-    n1 = tau.shape[1]
-    n2 = tau.shape[2]
-    x = float(ui)
-    y = float(uj)
-    bx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 3]
-    by = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 3]
-    bz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 3]
+def chunk_ball(ball, n_tau, tau1, radius, tau_lo_log, tau_dlog, ui, uj, k0, m2, s, b):
+    """Pass 1 of :func:`ball_d_rows`: the ball's albedos and D's τ coordinate
+    (:func:`.preint.tau_coord` in selects) at nodes ``k0 … k0 + CHUNK − 1`` of row (i, j)."""
     last = np.uint64(m2 - 1)
     for q in range(CHUNK):
         k = min_index(np.uint64(k0 + q), last)
-        z = float(k)
-        wgt, ox, oy, oz, d2, d2c = light_dir(lights, point, bx + i2w[0, 2] * z, by + i2w[1, 2] * z, bz + i2w[2, 2] * z)
         s[np.uint64(b + AR * CHUNK + q)] = ball[ui, uj, k, ONE]
         s[np.uint64(b + AG * CHUNK + q)] = ball[ui, uj, k, TWO]
         s[np.uint64(b + AB * CHUNK + q)] = ball[ui, uj, k, THREE]
@@ -127,7 +118,26 @@ def chunk_front(lights, point, tau, ball, w2i, i2w, radius, n_tau, tau1, tau_lo_
         nonpos = not (tb > 0.0)
         s[np.uint64(b + IT * CHUNK + q)] = 0.0 if nonpos else it
         s[np.uint64(b + TT * CHUNK + q)] = 0.0 if nonpos else tt
-        # ball_entry, and the front there (the light grid is the data samples)
+
+
+@scalar(inline=True)
+def chunk_front(lights, point, tau, w2i, i2w, radius, ui, uj, k0, m2, s, b):
+    """Pass 1, ambient scattering: ``E Φ`` per channel, the front Φ read at the ball's entry point
+    (:func:`.raycast.ball_entry`; the light grid is the data samples)."""
+    lpow = lights.power
+    n0 = tau.shape[0]
+    n1 = tau.shape[1]
+    n2 = tau.shape[2]
+    x = float(ui)
+    y = float(uj)
+    bx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 3]
+    by = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 3]
+    bz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 3]
+    last = np.uint64(m2 - 1)
+    for q in range(CHUNK):
+        k = min_index(np.uint64(k0 + q), last)
+        z = float(k)
+        wgt, ox, oy, oz, d2, d2c = light_dir(lights, point, bx + i2w[0, 2] * z, by + i2w[1, 2] * z, bz + i2w[2, 2] * z)
         sb = min(radius, math.sqrt(d2)) if point else radius
         lx = min(max(x - sb * (w2i[0, 0] * ox + w2i[0, 1] * oy + w2i[0, 2] * oz), 0.0), n0 - 1.0)
         ly = min(max(y - sb * (w2i[1, 0] * ox + w2i[1, 1] * oy + w2i[1, 2] * oz), 0.0), n1 - 1.0)
@@ -184,11 +194,15 @@ def d_node(D, a_nodes, it, tt, na, a):
 
 
 @scalar(inline=True)
-def chunk_store(model, D, a_nodes, nch, q0, add, ui, uj, k0, m2, s, b, out):
-    """Pass 3: ``(E T p + E Φ D)·max(d², d2min)`` of the chunk's nodes in the row added to slot
-    ``q0`` (``add``), or written there."""
+def chunk_store(model, dgrid, nch, q0, add, ui, uj, k0, m2, s, b, out):
+    """Pass 2: ``(E T p + E Φ D)·max(d², d2min)`` of the chunk's nodes in the row added to slot
+    ``q0`` (``add``), or written there; D from ``dgrid`` (:func:`ball_d_rows`: one channel when the
+    ball's albedo is grey)."""
     n = min(CHUNK, m2 - k0)
     uq0 = np.uint64(q0)
+    dg = np.uint64(min(1, dgrid.shape[3] - 1))
+    db = np.uint64(min(2, dgrid.shape[3] - 1))
+    keep = 1.0 if add else 0.0
     for q in range(n):
         k = np.uint64(k0 + q)
         d2c = s[np.uint64(b + D2 * CHUNK + q)]
@@ -196,33 +210,63 @@ def chunk_store(model, D, a_nodes, nch, q0, add, ui, uj, k0, m2, s, b, out):
         sg = s[np.uint64(b + SG * CHUNK + q)]
         sb = s[np.uint64(b + SB * CHUNK + q)]
         if model == AMBIENT_SCATTERING:
-            it = np.uint64(np.uint32(s[np.uint64(b + IT * CHUNK + q)]))
-            tt = s[np.uint64(b + TT * CHUNK + q)]
-            sr += s[np.uint64(b + FR * CHUNK + q)] * d_node(D, a_nodes, it, tt, s[np.uint64(b + NR * CHUNK + q)],
-                                                           s[np.uint64(b + AR * CHUNK + q)])
-            if nch == 3:
-                sg += s[np.uint64(b + FG * CHUNK + q)] * d_node(D, a_nodes, it, tt, s[np.uint64(b + NG * CHUNK + q)],
-                                                               s[np.uint64(b + AG * CHUNK + q)])
-                sb += s[np.uint64(b + FB * CHUNK + q)] * d_node(D, a_nodes, it, tt, s[np.uint64(b + NB * CHUNK + q)],
-                                                               s[np.uint64(b + AB * CHUNK + q)])
-        keep = 1.0 if add else 0.0
+            sr += s[np.uint64(b + FR * CHUNK + q)] * dgrid[ui, uj, k, ZERO]
+            sg += s[np.uint64(b + FG * CHUNK + q)] * dgrid[ui, uj, k, dg]
+            sb += s[np.uint64(b + FB * CHUNK + q)] * dgrid[ui, uj, k, db]
         out[ui, uj, k, uq0] = keep * out[ui, uj, k, uq0] + sr * d2c
         if nch == 3:
             out[ui, uj, k, uq0 + np.uint64(1)] = keep * out[ui, uj, k, uq0 + np.uint64(1)] + sg * d2c
             out[ui, uj, k, uq0 + np.uint64(2)] = keep * out[ui, uj, k, uq0 + np.uint64(2)] + sb * d2c
 
 
+@scalar(inline=True)
+def chunk_d(D, a_nodes, nch, ui, uj, k0, m2, s, b, out):
+    """Pass 3 of :func:`ball_d_rows`: D at each node's τ and albedo per channel, written to ``out``."""
+    n = min(CHUNK, m2 - k0)
+    for q in range(n):
+        k = np.uint64(k0 + q)
+        it = np.uint64(np.uint32(s[np.uint64(b + IT * CHUNK + q)]))
+        tt = s[np.uint64(b + TT * CHUNK + q)]
+        out[ui, uj, k, ZERO] = d_node(D, a_nodes, it, tt, s[np.uint64(b + NR * CHUNK + q)], s[np.uint64(b + AR * CHUNK + q)])
+        if nch == 3:
+            out[ui, uj, k, ONE] = d_node(D, a_nodes, it, tt, s[np.uint64(b + NG * CHUNK + q)],
+                                         s[np.uint64(b + AG * CHUNK + q)])
+            out[ui, uj, k, TWO] = d_node(D, a_nodes, it, tt, s[np.uint64(b + NB * CHUNK + q)],
+                                         s[np.uint64(b + AB * CHUNK + q)])
+
+
 @driver
-def bake_rows(model, lights, tau, ball, D, a_nodes, radius, tau_lo_log, tau_dlog, w2i, i2w, nch, q0, add, out, s):
+def ball_d_rows(ball, D, a_nodes, radius, tau_lo_log, tau_dlog, out, s):
+    """D(r σ̄, ā) of an isotropic phase function at every data sample, per channel: ``out`` (m0, m1,
+    m2, nch) float32, ``nch`` 3 or 1 (a grey ball albedo: the red channel's); ``ball`` (m0, m1, m2,
+    4) the ball grid, ``D`` (n_a, n_tau, 1) the table slice (:func:`.raycast.d_lookup3` at every
+    node, in chunks of a row). It depends on the transfer function and the radius, not on the
+    lights: a relight's bake (:func:`bake_rows`) reads it instead of the ball."""
+    m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
+    nch = out.shape[3]
+    n_tau = D.shape[1]
+    tau1 = math.exp(tau_lo_log)
+    nchunk = (m2 + CHUNK - 1) // CHUNK
+    for i in prange(m0):
+        b = numba.get_thread_id() * (NF * CHUNK)
+        ui = np.uint64(i)
+        for j in range(m1):
+            uj = np.uint64(j)
+            for c in range(nchunk):
+                k0 = c * CHUNK
+                chunk_ball(ball, n_tau, tau1, radius, tau_lo_log, tau_dlog, ui, uj, k0, m2, s, b)
+                chunk_albedo(a_nodes, nch, s, b)
+                chunk_d(D, a_nodes, nch, ui, uj, k0, m2, s, b, out)
+
+
+@driver
+def bake_rows(model, lights, tau, dgrid, radius, w2i, i2w, nch, q0, add, out, s):
     """Adds light 0 of ``lights`` (one point or directional light) to slot ``q0`` of ``out`` (m0, m1,
     m2, slots·nch) — or, ``add`` false, writes it there — its nodes the data samples:
     :func:`.bake.bake_incident` for the case of this module's docstring, in chunks of a row. ``tau``
-    (m0, m1, m2, 1) the light's optical depth
-    (its front too), ``ball`` (m0, m1, m2, 4) and ``D`` (n_a, n_tau, 1) read by ambient scattering;
-    ``s`` :func:`scratch`."""
+    (m0, m1, m2, 1) the light's optical depth (its front too), ``dgrid`` ambient scattering's D per
+    node (:func:`ball_d_rows`); ``s`` :func:`scratch`."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
-    n_tau = D.shape[1]
-    tau1 = math.exp(tau_lo_log)
     p = INV_4PI  # the isotropic phase function (phase_eval's value for every angle)
     nchunk = (m2 + CHUNK - 1) // CHUNK
     point = lights.kind[0] == 0
@@ -235,7 +279,5 @@ def bake_rows(model, lights, tau, ball, D, a_nodes, radius, tau_lo_log, tau_dlog
                 k0 = c * CHUNK
                 chunk_direct(lights, point, tau, i2w, p, ui, uj, k0, m2, s, b)
                 if model == AMBIENT_SCATTERING:
-                    chunk_front(lights, point, tau, ball, w2i, i2w, radius, n_tau, tau1, tau_lo_log, tau_dlog, ui, uj,
-                                k0, m2, s, b)
-                    chunk_albedo(a_nodes, nch, s, b)
-                chunk_store(model, D, a_nodes, nch, q0, add, ui, uj, k0, m2, s, b, out)
+                    chunk_front(lights, point, tau, w2i, i2w, radius, ui, uj, k0, m2, s, b)
+                chunk_store(model, dgrid, nch, q0, add, ui, uj, k0, m2, s, b, out)

@@ -38,6 +38,8 @@ class _Inputs:
     fronts: object = None
     diffusion: np.ndarray = field(default_factory=lambda: K.NONE12)
     diffusion_info: dict | None = None
+    # ambient scattering's D per sample, read by its bake instead of the ball (SceneStages.ball_d)
+    dgrid: np.ndarray | None = None
 
 
 def _lights(renderer, req, model, inputs):
@@ -75,14 +77,34 @@ def _diffusion(renderer, req, options, inputs):
         bar.update()
 
 
+def _bakes_lights(req, inputs) -> bool:
+    """Whether the lights' in-scattering is baked: an isotropic phase function, lights that matter,
+    and the quality preset's ``bake_lights``."""
+    return bool(req.bake_lights and inputs.lights and req.phase.canonical()[2])
+
+
+def _reads_ball_d(renderer, req, model, inputs) -> bool:
+    """Whether ambient scattering's bake reads D per sample (:meth:`SceneStages.ball_d`) instead of
+    the ball grid: the row driver's case (:func:`pv_ambient.stages.bake.rows_apply`) — baked lights,
+    a light grid on the data samples, the Beer–Lambert front and a table slice without an angle axis."""
+    from ..stages.bake import table_applies
+
+    return (model == "ambient_scattering" and _bakes_lights(req, inputs) and req.propagation != "tube"
+            and inputs.grid.on_samples(renderer.optics.field.shape) and min(inputs.grid.shape) >= 2
+            and table_applies(renderer.stages.table(req.phase, req.radius, quality=req.table_quality)))
+
+
 def gather_inputs(renderer, req, model, options):
     """Every per-scene input of ``model`` for request ``req`` (computed or found in the cache)."""
     inputs = _Inputs(grid=renderer.stages.light_grid(req.light_resolution) if model != "emission_absorption" else None)
     _lights(renderer, req, model, inputs)
-    if MODEL_SPECS[model].ball:
-        inputs.ball = renderer.stages.ball_grid(req.radius)
     if model == "ambient_scattering" and inputs.lights:
         _ambient(renderer, req, model, inputs)
+    if MODEL_SPECS[model].ball:
+        if inputs.lights and _reads_ball_d(renderer, req, model, inputs):
+            inputs.dgrid = renderer.stages.ball_d(req.radius, req.phase, req.table_quality)
+        else:
+            inputs.ball = renderer.stages.ball_grid(req.radius)
     if model == "diffusion" and inputs.lights:
         _diffusion(renderer, req, options, inputs)
     return inputs
@@ -107,7 +129,8 @@ def _bake(renderer, req, model, options, inputs, records):
     with stage_bar(req.progress_bar, "baked in-scattering") as bar:
         inc, nch = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
                                    (model, radius, tkey, req.propagation, ph.canonical(), dkey),
-                                   inputs.taus, inputs.fronts, diffusion=inputs.diffusion if fold else None)
+                                   inputs.taus, inputs.fronts, diffusion=inputs.diffusion if fold else None,
+                                   dgrid=inputs.dgrid)
         bar.update()
     return grec._replace(inc=inc, baked=nch), MODEL_IDS["single_scattering" if fold else model]
 
@@ -118,7 +141,7 @@ def raycast_records(renderer, req, model, options, inputs):
     stages, ph = renderer.stages, req.phase
     d2min = (0.25 * req.step) ** 2  # a point light's I/d² clamped at a quarter step
     # isotropic phase: the lights' in-scattering does not depend on the view; bake it once
-    bake = bool(req.bake_lights and inputs.lights and ph.canonical()[2])
+    bake = _bakes_lights(req, inputs)
     lg = inputs.grid if inputs.grid is not None else NO_GRID
     lrec = K.lights_of(pack_lights(inputs.lights), ph, d2min)
     D, a_nodes, lo_log, dlog = inputs.table

@@ -278,7 +278,26 @@ class SceneStages:
         return self.cache[key]
 
     # -- baked in-scattering and diffusion ---------------------------------------------------
-    def incident(self, model_id, lights, grid, records, key, taus, phis=None, diffusion=None):
+    def ball_d(self, radius, phase, quality="balanced"):
+        """D(r σ̄, ā) per data sample and channel for an isotropic ``phase``
+        (:func:`pv_ambient.stages.bake.ball_d`; cached per radius and table slice): what ambient
+        scattering's bake reads on the row driver. The ball grid it is made from is dropped from the
+        cache then — the baked camera pass reads neither — and rebuilt if a per-sample render asks
+        for it: the two together would hold seven volumes of float32 where D holds three (one for a
+        grey albedo)."""
+        from ..stages.bake import ball_d
+
+        key = ("ball_d", float(radius), self.table_key(phase, radius, quality))
+        if key not in self.cache:
+            table = self.table(phase, radius, quality)
+            ball = self.ball_grid(radius)
+            self.cache[key] = self._timed("ball D", lambda: ball_d(ball, table, radius))
+            del ball
+            if ("ball", float(radius)) in self.cache:
+                del self.cache[("ball", float(radius))]
+        return self.cache[key]
+
+    def incident(self, model_id, lights, grid, records, key, taus, phis=None, diffusion=None, dgrid=None):
         """The baked in-scattered light of ``lights`` on ``grid``, ``(array, nch)``
         (:func:`pv_ambient.stages.bake.bake_incident`): ``records`` are the kernel's Lights,
         LightGrid and Ambient records, ``taus`` / ``phis`` each light's optical depth and tube front,
@@ -314,7 +333,8 @@ class SceneStages:
                         q = old_slots[old_lights.index(lt)] * nch
                         reuse[j] = inc[..., q:q + nch]
             value = self._timed("baked in-scattering", lambda: bake_incident(model_id, records, self.geometry, grid,
-                                                                             taus, phis, diffusion, reuse, into=into))
+                                                                             taus, phis, diffusion, reuse, into=into,
+                                                                             dgrid=dgrid))
             self._replace("incident", key, value)
         return self.cache[key]
 

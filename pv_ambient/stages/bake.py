@@ -9,14 +9,37 @@ import numpy as np
 
 from .._kernels import records as K
 
+#: The D grid a bake without ambient scattering passes (not read).
+NO_D = np.zeros((1, 1, 1, 1), np.float32)
 
-def incident_channels(power, ball, diffusion=None) -> int:
-    """1 when every channel of the baked light is equal (grey lights, a grey ball albedo and a
-    grey or absent diffusion field), else 3."""
+
+def grey_ball(ball) -> bool:
+    """Whether the ball grid's mean albedo is the same in every channel (or there is no ball)."""
+    return ball.shape[3] < 4 or bool(np.array_equal(ball[..., 1], ball[..., 2])
+                                     and np.array_equal(ball[..., 1], ball[..., 3]))
+
+
+def ball_d(ball, table, radius) -> np.ndarray:
+    """D(r σ̄, ā) of an isotropic phase function per data sample and channel, float32 (nx, ny, nz,
+    3), or (…, 1) where the ball's albedo is grey (:func:`grey_ball`): what ambient scattering's
+    bake reads instead of the ball grid (:func:`pv_ambient._kernels.bake_rows.ball_d_rows`; it
+    depends on the transfer function and r, not on the lights). ``table`` is the preintegrated
+    slice (``lookup_args()``: D without an angle axis)."""
+    from .._kernels.bake_rows import ball_d_rows, scratch
+
+    D, _, a_nodes, lo_log, dlog = table.lookup_args()
+    out = np.empty(tuple(ball.shape[:3]) + (1 if grey_ball(ball) else 3,), np.float32)
+    ball_d_rows(ball, D, a_nodes, float(radius), float(lo_log), float(dlog), out, scratch())
+    return out
+
+
+def incident_channels(power, ball, diffusion=None, grey_albedo=None) -> int:
+    """1 when every channel of the baked light is equal (grey lights, a grey ball albedo —
+    ``grey_albedo``, or :func:`grey_ball` of ``ball`` when None — and a grey or absent diffusion
+    field), else 3."""
     from .._kernels.raycast import diffusion_layout
 
-    grey = bool(np.all(power[:, 0:1] == power)) and (ball.shape[3] < 4 or bool(
-        np.array_equal(ball[..., 1], ball[..., 2]) and np.array_equal(ball[..., 1], ball[..., 3])))
+    grey = bool(np.all(power[:, 0:1] == power)) and (grey_ball(ball) if grey_albedo is None else bool(grey_albedo))
     if diffusion is not None and diffusion_layout(diffusion.shape[3])[1] == 3:
         grey = False  # coloured diffusion solution
     return 1 if grey else 3
@@ -33,25 +56,30 @@ def incident_slots(kinds) -> list:
     return out
 
 
-def rows_apply(model_id, records, grid, phis) -> bool:
+def rows_apply(model_id, records, grid, phis, dgrid=None) -> bool:
     """Whether :func:`pv_ambient._kernels.bake_rows.bake_rows` bakes these lights (its module
-    docstring): the light grid on the data samples, the Beer–Lambert front, a D table without an
-    angle axis and an isotropic phase function (every light then sees 1/4π)."""
+    docstring): the light grid on the data samples, the Beer–Lambert front, an isotropic phase
+    function (every light then sees 1/4π) and, for ambient scattering, D per sample (``dgrid``,
+    :func:`ball_d`)."""
     from .._kernels.models import AMBIENT_SCATTERING
     from .._kernels.phase import INV_4PI, phase_eval
 
-    lrec, grec, arec = records
+    lrec = records[0]
     shape = tuple(grid.shape)
-    ball = model_id != AMBIENT_SCATTERING or (
-        tuple(arec.ball.shape) == shape + (4,) and arec.D.ndim == 3 and arec.D.shape[2] == 1
-        and arec.D.shape[1] >= 3 and arec.a_nodes.shape[0] >= 2)
+    ball = model_id != AMBIENT_SCATTERING or (dgrid is not None and tuple(dgrid.shape[:3]) == shape)
     return bool(phis is None and ball and min(shape) >= 2 and np.all(np.asarray(grid.lo) == 0.0)
                 and np.all(np.asarray(grid.step) == 1.0)
                 and all(phase_eval(lrec.pkind, lrec.g, c) == INV_4PI for c in (-1.0, 0.0, 1.0)))
 
 
+def table_applies(table) -> bool:
+    """Whether :func:`ball_d` reads this table slice: D without an angle axis, ≥ 3 τ nodes, ≥ 2 albedos."""
+    D, _, a_nodes = table.lookup_args()[:3]
+    return D.ndim == 3 and D.shape[2] == 1 and D.shape[1] >= 3 and a_nodes.shape[0] >= 2
+
+
 def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=None, reuse=None,
-                  driver="rows", into=None) -> tuple:
+                  driver="rows", into=None, dgrid=None) -> tuple:
     """The in-scattered light of the lights per unit albedo at the nodes of ``grid``, ``(array,
     nch)``: float32 (m0, m1, m2, slots·nch), a slot per point light (times d²) and one for the
     directional lights (:func:`incident_slots`), ``nch`` from :func:`incident_channels`
@@ -69,20 +97,23 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     are, the others (and the directional lights' slot) baked again — where it has this bake's
     shape (the same kinds of light in the same order and channels); else a new array. ``driver``:
     ``"rows"`` bakes in vectorised chunks of a row where :func:`rows_apply` holds
-    (:mod:`pv_ambient._kernels.bake_rows`), ``"nodes"`` node by node everywhere (the rule it follows)."""
+    (:mod:`pv_ambient._kernels.bake_rows`; ambient scattering reads D per sample, ``dgrid`` =
+    :func:`ball_d`), ``"nodes"`` node by node everywhere (the rule it follows; ambient scattering
+    reads the ball grid, ``records``' Ambient ``ball``)."""
     from .._kernels.bake import bake_diffusion
     from .._kernels.bake import bake_incident as bake
+    from .._kernels.models import AMBIENT_SCATTERING
     from .medium import stack_volumes
 
     lrec, grec, arec = records
-    nch = incident_channels(lrec.power, arec.ball, diffusion)
+    nch = incident_channels(lrec.power, arec.ball, diffusion, grey_albedo=None if dgrid is None else dgrid.shape[3] == 1)
     slots = incident_slots(lrec.kind)
     nslots = int(np.sum(lrec.kind == 0)) + int(np.any(lrec.kind != 0) or diffusion is not None)
     shape = tuple(grid.shape) + (nslots * nch,)
     reuse = {j: v for j, v in (reuse or {}).items() if v.shape[-1] == nch}
     if driver not in ("rows", "nodes"):
         raise ValueError(f"driver must be 'rows' or 'nodes', got {driver!r}")
-    rows = driver == "rows" and rows_apply(model_id, records, grid, phis)
+    rows = driver == "rows" and rows_apply(model_id, records, grid, phis, dgrid)
     in_place = into is not None and into.shape == shape and into.dtype == np.float32 and into.flags.c_contiguous
     out = into if in_place else np.zeros(shape, np.float32)
     if in_place:
@@ -107,10 +138,12 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
         tau = stack_volumes([taus[j]])
         if rows:
             # a point light's slot is its own: written, not added (nothing to clear first)
-            bake_rows(model_id, one, tau, arec.ball, arec.D, arec.a_nodes, float(arec.radius), float(arec.tau_lo_log),
-                      float(arec.tau_dlog), geometry.world_to_index, geometry.index_to_world, nch, q,
-                      not (in_place and lrec.kind[j] == 0), out, chunks)
+            bake_rows(model_id, one, tau, dgrid if dgrid is not None else NO_D, float(arec.radius),
+                      geometry.world_to_index, geometry.index_to_world, nch, q, not (in_place and lrec.kind[j] == 0),
+                      out, chunks)
             continue
+        if arec.ball.shape[3] < 4 and model_id == AMBIENT_SCATTERING:
+            raise ValueError("the node-by-node bake of ambient scattering needs the ball grid (records' Ambient.ball)")
         phi = tau if phis is None else stack_volumes([phis[j]])
         bake(model_id, one, grec._replace(tau=tau, phi=phi), arec, geometry.world_to_index, geometry.index_to_world,
              grid.lo, grid.step, nch, q, out)

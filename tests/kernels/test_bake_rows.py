@@ -34,7 +34,9 @@ def coloured_grid(albedo_span=(0.0, 1.0)):
 
 
 def captured_bakes(grid, lights, model):
-    """The arguments of every stage-level bake of a balanced render (the bake on)."""
+    """The arguments of every stage-level bake of a balanced render (the bake on), each with the
+    arguments of the node rule's bake of the same lights: the ball grid in the records instead of
+    D per sample (the row driver's ``dgrid``)."""
     calls = []
     orig = stage_bake.bake_incident
 
@@ -49,7 +51,14 @@ def captured_bakes(grid, lights, model):
     finally:
         stage_bake.bake_incident = orig
     assert res.metadata["baked_lights"]
-    return calls
+    out = []
+    for args, kw in calls:
+        lrec, grec, arec = args[1]
+        ball = r.stages.ball_grid(arec.radius) if "dgrid" in kw and kw["dgrid"] is not None else arec.ball
+        nodes = (args[:1] + ((lrec, grec, arec._replace(ball=ball)),) + args[2:],
+                 {k: v for k, v in kw.items() if k != "dgrid"})
+        out.append((args, kw, nodes))
+    return out
 
 
 LIGHT_SETS = {
@@ -67,11 +76,11 @@ def test_rows_equal_the_node_rule(model, lights):
     # rounding of the baked value
     calls = captured_bakes(coloured_grid(), LIGHT_SETS[lights], model)
     assert calls
-    for args, kw in calls:
+    for args, kw, (nargs, nkw) in calls:
         model_id, records, _, grid = args[:4]
-        assert stage_bake.rows_apply(model_id, records, grid, kw.get("phis"))
+        assert stage_bake.rows_apply(model_id, records, grid, kw.get("phis"), kw.get("dgrid"))
         rows, nch = stage_bake.bake_incident(*args, **kw, driver="rows")
-        nodes, nch_n = stage_bake.bake_incident(*args, **kw, driver="nodes")
+        nodes, nch_n = stage_bake.bake_incident(*nargs, **nkw, driver="nodes")
         assert nch == nch_n and rows.shape == nodes.shape
         assert np.abs(rows - nodes).max() <= 1e-6 * np.abs(nodes).max()
         assert np.abs(nodes).max() > 0
@@ -80,9 +89,10 @@ def test_rows_equal_the_node_rule(model, lights):
 def test_grey_albedo_bakes_one_channel_alike():
     g = coloured_grid()
     g["albedo"] = np.full((g.n_points, 3), 0.7, np.float32)
-    for args, kw in captured_bakes(g, LIGHT_SETS["point outside, grey"], "ambient_scattering"):
+    for args, kw, (nargs, nkw) in captured_bakes(g, LIGHT_SETS["point outside, grey"], "ambient_scattering"):
+        assert kw["dgrid"].shape[3] == 1  # D of a grey albedo: one channel
         rows, nch = stage_bake.bake_incident(*args, **kw, driver="rows")
-        nodes, _ = stage_bake.bake_incident(*args, **kw, driver="nodes")
+        nodes, _ = stage_bake.bake_incident(*nargs, **nkw, driver="nodes")
         assert nch == 1
         assert np.abs(rows - nodes).max() <= 1e-6 * np.abs(nodes).max()
 
@@ -91,15 +101,40 @@ def test_cases_outside_the_rows_take_the_node_rule():
     # a light grid finer than the data, or the tube front: rows_apply says no and the default
     # driver gives the node rule's array itself
     calls = captured_bakes(coloured_grid(), LIGHT_SETS["point inside, coloured"], "ambient_scattering")
-    args, kw = calls[0]
+    args, kw, (nargs, nkw) = calls[0]
     model_id, records, geometry, grid = args[:4]
-    assert not stage_bake.rows_apply(model_id, records, grid, [np.zeros(tuple(grid.shape) + (3,), np.float32)])
+    dgrid = kw["dgrid"]
+    assert not stage_bake.rows_apply(model_id, records, grid, [np.zeros(tuple(grid.shape) + (3,), np.float32)], dgrid)
+    assert not stage_bake.rows_apply(model_id, records, grid, None, None)  # ambient scattering without D
     from pv_ambient.stages.propagation import make_light_grid
 
     fine = make_light_grid(geometry, 2.0)
-    assert not stage_bake.rows_apply(model_id, records, fine, None)
+    assert not stage_bake.rows_apply(model_id, records, fine, None, dgrid)
     with pytest.raises(ValueError, match="driver"):
         stage_bake.bake_incident(*args, **kw, driver="fast")
+    with pytest.raises(ValueError, match="ball grid"):
+        stage_bake.bake_incident(*args, **{k: v for k, v in kw.items() if k != "dgrid"}, driver="nodes")
+
+
+def test_ball_d_equals_the_table_lookup_and_replaces_the_ball():
+    # D per sample against preint.d_lookup at the ball's τ and albedo, per channel; the render
+    # that made it keeps it and not the ball grid
+    from pv_ambient._kernels.preint import d_lookup
+
+    g = coloured_grid()
+    r = pa.Renderer(g, transfer_function=pa.TransferFunction.physical(), lights=LIGHT_SETS["point inside, coloured"])
+    r.render(camera=CAM, window_size=SIZE, model="ambient_scattering", quality="balanced", light_resolution=1.0)
+    (key, dgrid), = r.cache.items("ball_d")
+    assert not r.cache.keys("ball") and dgrid.shape[3] == 3
+    radius = key[1]
+    ball = r.stages.ball_grid(radius)
+    D, _, a_nodes, lo_log, dlog = r.cache[key[2]].lookup_args()
+    rng = np.random.default_rng(2)
+    for idx in rng.integers(0, ball.shape[:3], (200, 3)):
+        b = ball[tuple(idx)].astype(np.float64)
+        for c in range(3):
+            expect = d_lookup(D, a_nodes, lo_log, dlog, 1.0, radius * b[0], b[1 + c])
+            assert abs(dgrid[tuple(idx) + (c,)] - expect) <= 1e-6 * max(abs(expect), 1e-12)
 
 
 def test_log_pos_against_math_log():
