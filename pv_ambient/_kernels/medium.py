@@ -197,6 +197,25 @@ def sigma_at(mode, field, table, lut_lo, lut_inv, x, y, z):
     return lut_value(table, k0, k1, f, 0)
 
 
+#: Edge of the tiles in which :func:`copy_float32` transposes a plane (both sides stay in cache).
+COPY_TILE = 32
+
+
+@driver
+def copy_float32(src, dst):
+    """``dst[...] = src`` as float32, ``dst`` C-ordered, ``src`` any layout and numeric dtype: in
+    parallel over the middle axis, each (first, last) plane in tiles. Why: a grid's point data
+    arrives x fastest (a Fortran-ordered view), and NumPy's copy of it into C order runs on one
+    thread through the cache at a stride — the first step of every classification."""
+    n0, n1, n2 = dst.shape
+    for j in prange(n1):
+        for i0 in range(0, n0, COPY_TILE):
+            for k0 in range(0, n2, COPY_TILE):
+                for i in range(i0, min(i0 + COPY_TILE, n0)):
+                    for k in range(k0, min(k0 + COPY_TILE, n2)):
+                        dst[i, j, k] = np.float32(src[i, j, k])
+
+
 @driver
 def classify_columns(field, table, lut_lo, lut_inv, col, out):
     """Columns ``col … col + ncomp − 1`` of ``table`` at every sample of the scalar ``field``

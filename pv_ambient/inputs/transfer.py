@@ -145,6 +145,22 @@ def _lookup(optics, s, col, ncomp):
     return out
 
 
+def as_float32_c(a) -> np.ndarray:
+    """``a`` as a C-ordered float32 array: ``a`` itself when it is one, else a copy made in parallel
+    (:func:`pv_ambient._kernels.medium.copy_float32`; NumPy's copy of a grid's x-fastest view runs
+    on one thread at a stride)."""
+    a = np.asarray(a)
+    if a.dtype == np.float32 and a.flags.c_contiguous:
+        return a
+    if a.ndim != 3 or a.size < 1 << 16:
+        return np.ascontiguousarray(a, dtype=np.float32)
+    from .._kernels.medium import copy_float32
+
+    out = np.empty(a.shape, np.float32)
+    copy_float32(a, out)
+    return out
+
+
 def _digest(*arrays, extra="") -> str:
     h = hashlib.blake2b(digest_size=16)
     for a in arrays:
@@ -371,7 +387,7 @@ class TransferFunction:
             return self._resolve_physical(volume, nan_policy)
         s = select_scalars(volume, scalars if scalars is not None else self.scalars,
                            component=component if component is not None else self.component)
-        s32 = np.ascontiguousarray(s, dtype=np.float32)
+        s32 = as_float32_c(s)
         finite = np.isfinite(s32)
         nbad = int(s32.size - np.count_nonzero(finite))
         if nbad and nan_policy == "raise":
@@ -391,9 +407,12 @@ class TransferFunction:
                         aux=np.zeros((1, 1, 1, 6), np.float32), sigma_max=0.0, albedo_max=0.0, emission_max=0.0)
         if nbad:
             return self._bake(optics, finite)
-        # bounds over the entries the data actually reaches (used by model="auto")
-        x = np.clip((s32[finite] - lo) * inv, 0, n - 1) if s32.size else np.zeros(1)
-        k0, k1 = int(np.floor(x.min())), min(int(np.ceil(x.max())), n - 1)
+        # bounds over the entries the data actually reaches (used by model="auto"): every value is
+        # finite here, and the entry index is monotone in the value, so the extremes suffice
+        # (in float32, as the elementwise clip of every value was: the same rounding)
+        ext = (s32.min(), s32.max()) if s32.size else (np.float32(lo), np.float32(lo))
+        x0, x1 = (float(np.clip((v - lo) * inv, 0, n - 1)) for v in ext)
+        k0, k1 = int(np.floor(x0)), min(int(np.ceil(x1)), n - 1)
         used = table[k0:k1 + 1]
         sigma_max = float(used[:, COL_SIGMA].max())
         has_sig = used[:, COL_SIGMA] > 0

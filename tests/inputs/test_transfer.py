@@ -143,3 +143,27 @@ def test_classified_grids_match_numpy_interp():
     np.testing.assert_allclose(optics.sigma_grid(), sig, rtol=1e-6, atol=1e-7 * sig.max())
     np.testing.assert_allclose(optics.albedo_grid(), alb, rtol=1e-6, atol=1e-7)
     assert len(np.unique(sig)) > 100 and sig.min() == 0.0 and not np.allclose(alb[..., 0], alb[..., 2])
+
+
+def test_large_fields_copied_in_parallel_equal_numpy_and_bounds_the_used_entries():
+    # a grid's x-fastest point data (Fortran-ordered) of any dtype, copied to C-ordered float32 by
+    # the parallel kernel: NumPy's copy exactly; and the table bounds that model="auto" reads
+    # (sigma_max, albedo_max) from the field's extremes equal those over every value
+    from pv_ambient.inputs.transfer import COL_ALBEDO, as_float32_c
+
+    rng = np.random.default_rng(5)
+    for a in (np.asfortranarray(rng.integers(-300, 300, (70, 50, 40)).astype(np.int16)),
+              np.asfortranarray(rng.random((41, 33, 65))), rng.random((64, 64, 20)).astype(np.float32)):
+        got = as_float32_c(a)
+        assert got.flags.c_contiguous and got.dtype == np.float32
+        assert np.array_equal(got, np.ascontiguousarray(a, dtype=np.float32))
+    g = pv.ImageData(dimensions=(48, 40, 36))
+    g["density"] = rng.uniform(0.2, 0.7, g.n_points).astype(np.float32)
+    tf = TransferFunction(cmap="viridis", opacity="linear", clim=(0.0, 1.0))
+    optics = tf.resolve(g)
+    s = optics.field
+    x = np.clip((s - float(optics.lut_lo)) * optics.lut_inv, 0, optics.table.shape[0] - 1)
+    used = optics.table[int(np.floor(x.min())):int(np.ceil(x.max())) + 1]
+    assert optics.sigma_max == float(used[:, COL_SIGMA].max()) > 0
+    assert optics.albedo_max == float(used[used[:, COL_SIGMA] > 0, COL_ALBEDO:COL_ALBEDO + 3].max())
+    assert optics.sigma_max < float(optics.table[:, COL_SIGMA].max())  # the clim reaches past the data
