@@ -236,6 +236,24 @@ def classify_columns(field, table, lut_lo, lut_inv, col, out):
 
 
 @driver
+def scattering_column(field, table, lut_lo, lut_inv, col, sigma, out):
+    """``out = sigma ·`` column ``col`` of ``table`` at every sample of ``field`` (float32): the
+    lookup of :func:`classify_columns` rounded to float32, times σt in float32 — the product NumPy
+    forms from the two arrays, in one parallel pass with no column array."""
+    nx, ny, nz = field.shape
+    n = table.shape[0]
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                x = (field[i, j, k] - lut_lo) * lut_inv
+                x = min(max(x, 0.0), n - 1.0)
+                k0 = min(int(x), n - 2)
+                f = x - k0
+                a = np.float32((1.0 - f) * table[k0, col] + f * table[k0 + 1, col])
+                out[i, j, k] = sigma[i, j, k] * a
+
+
+@driver
 def scattering_nodes(mode, field, table, lut_lo, lut_inv, aux, node0, node1, node2, out):
     """Marks in ``out`` (the light grid's shape, bool) every node nearest to a data sample that
     scatters (σt > 0 and some albedo channel > 0); ``node0/1/2`` map a data index to its nearest

@@ -112,6 +112,20 @@ class Optics:
             return self.aux[..., c]
         return _lookup(self, self.field, COL_ALBEDO + c, 1)[..., 0]
 
+    def scattering_channel(self, c, sigma) -> np.ndarray:
+        """σs of albedo channel ``c`` at every sample, ``sigma`` (σt on the samples, float32) times
+        :meth:`albedo_channel`, (nx, ny, nz) float32, a new array: in mode LUT one parallel pass
+        (:func:`pv_ambient._kernels.medium.scattering_column`) with no albedo array."""
+        sigma = np.asarray(sigma)
+        if self.mode == MODE_GRID or sigma.dtype != np.float32 or not sigma.flags.c_contiguous:
+            return np.multiply(sigma, self.albedo_channel(c), dtype=np.float32)
+        from .._kernels.medium import scattering_column
+
+        out = np.empty(sigma.shape, np.float32)
+        scattering_column(np.ascontiguousarray(self.field), self.table, float(self.lut_lo), float(self.lut_inv),
+                          int(COL_ALBEDO + c), sigma, out)
+        return out
+
     def albedo_same_as_previous(self) -> tuple:
         """For each albedo channel, whether it equals the channel before it everywhere (channel 0:
         False): a grey albedo reduces one channel and copies it. From the table's columns in mode

@@ -132,9 +132,11 @@ class SceneStages:
         (:func:`pv_ambient.stages.ball.ball_grid`; cached per radius)."""
         from ..stages.ball import ball_grid
 
+        sigma = self.sigma_samples()
         return self.cache.get(("ball", float(radius)), lambda: ball_grid(
-            self.sigma_samples(), self.optics.albedo_channel, self.geometry.spacing, radius,
-            same_as_previous=self.optics.albedo_same_as_previous()))
+            sigma, self.optics.albedo_channel, self.geometry.spacing, radius,
+            same_as_previous=self.optics.albedo_same_as_previous(),
+            scattering=lambda c: self.optics.scattering_channel(c, sigma)))
 
     def albedo_range(self, radius):
         """(min, max) of the ball-mean albedo over the medium (cached with the ball grid: every

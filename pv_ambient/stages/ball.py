@@ -8,7 +8,7 @@ import numpy as np
 from .sat import mean_extinction
 
 
-def ball_grid(sigma, albedo, spacing, radius, same_as_previous=None) -> np.ndarray:
+def ball_grid(sigma, albedo, spacing, radius, same_as_previous=None, scattering=None) -> np.ndarray:
     """σ̄ (mean extinction over the ball of world radius ``radius``) and the ball's mean albedo
     ā = mean(σs)/σ̄ per channel, at every data sample: float32 (nx, ny, nz, 4).
 
@@ -16,7 +16,9 @@ def ball_grid(sigma, albedo, spacing, radius, same_as_previous=None) -> np.ndarr
     function ``c ↦`` channel ``c`` on the samples (:meth:`pv_ambient.inputs.transfer.Optics.albedo_channel`),
     called once per channel so that one channel at a time is held. ``same_as_previous[c]`` says
     that channel ``c`` equals channel ``c − 1`` (a grey albedo), which then takes the same box
-    mean; compared here when not given.
+    mean; compared here when not given. ``scattering``: a function ``c ↦ σ·a_c`` (a new float32
+    array, :meth:`pv_ambient.inputs.transfer.Optics.scattering_channel`) that replaces forming the
+    product from ``albedo``.
 
     The box means are separable (:func:`pv_ambient.stages.sat.box_mean_separable`, done in place),
     so besides the result the stage holds σ̄ and one channel's σ·a: 2× the float32 volume."""
@@ -41,7 +43,7 @@ def ball_grid(sigma, albedo, spacing, radius, same_as_previous=None) -> np.ndarr
         if c > 0 and same[c]:
             out[..., 1 + c] = out[..., c]  # grey albedo: one box mean serves every channel
             continue
-        ms = np.multiply(sigma, channel(c), dtype=np.float32)
+        ms = scattering(c) if scattering is not None else np.multiply(sigma, channel(c), dtype=np.float32)
         ms = mean_extinction(ms, spacing, radius) if ms.size == 0 else _mean_in_place(ms, spacing, radius)
         ball_albedo_into(sbar, ms, out, 1 + c)
         del ms

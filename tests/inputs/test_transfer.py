@@ -167,3 +167,17 @@ def test_large_fields_copied_in_parallel_equal_numpy_and_bounds_the_used_entries
     assert optics.sigma_max == float(used[:, COL_SIGMA].max()) > 0
     assert optics.albedo_max == float(used[used[:, COL_SIGMA] > 0, COL_ALBEDO:COL_ALBEDO + 3].max())
     assert optics.sigma_max < float(optics.table[:, COL_SIGMA].max())  # the clim reaches past the data
+
+
+def test_scattering_channel_is_sigma_times_the_albedo_channel_to_the_bit():
+    # the ball grid's σ·a per channel in one pass (LUT mode) equals NumPy's float32 product of the
+    # σt and albedo arrays; a physical transfer function forms that product itself
+    g = pv.ImageData(dimensions=(30, 20, 25))
+    rng = np.random.default_rng(6)
+    g["density"] = rng.uniform(-0.5, 1.5, g.n_points).astype(np.float32)
+    optics = TransferFunction(cmap="magma", opacity="sigmoid", clim=(0.0, 1.0)).resolve(g)
+    sigma = optics.sigma_grid()
+    for c in range(3):
+        assert np.array_equal(optics.scattering_channel(c, sigma),
+                              np.multiply(sigma, optics.albedo_channel(c), dtype=np.float32))
+    assert np.any(optics.scattering_channel(0, sigma) > 0)
