@@ -74,6 +74,13 @@ def light_dir(lights, point, wx, wy, wz):
     return 1.0, lvec[0, 0], lvec[0, 1], lvec[0, 2], d2, 1.0
 
 
+@scalar(force_inline=True)
+def row_origin(i2w, x, y):
+    """World position of row (x, y)'s node 0: a node k adds ``k`` times the third column of ``i2w``."""
+    return (i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 3], i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 3],
+            i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 3])
+
+
 @scalar(inline=True)
 def chunk_direct(lights, point, tau, i2w, p, ui, uj, k0, m2, s, b):
     """Pass 1 of nodes ``k0 … k0 + CHUNK − 1`` of row (i, j) (the last node repeated past the row's
@@ -81,9 +88,7 @@ def chunk_direct(lights, point, tau, i2w, p, ui, uj, k0, m2, s, b):
     lpow = lights.power
     x = float(ui)
     y = float(uj)
-    bx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 3]
-    by = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 3]
-    bz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 3]
+    bx, by, bz = row_origin(i2w, x, y)
     last = np.uint64(m2 - 1)
     for q in range(CHUNK):
         k = min_index(np.uint64(k0 + q), last)
@@ -130,9 +135,7 @@ def chunk_front(lights, point, tau, w2i, i2w, radius, ui, uj, k0, m2, s, b):
     n2 = tau.shape[2]
     x = float(ui)
     y = float(uj)
-    bx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 3]
-    by = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 3]
-    bz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 3]
+    bx, by, bz = row_origin(i2w, x, y)
     last = np.uint64(m2 - 1)
     for q in range(CHUNK):
         k = min_index(np.uint64(k0 + q), last)

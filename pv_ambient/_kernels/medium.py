@@ -216,6 +216,17 @@ def copy_float32(src, dst):
                         dst[i, j, k] = np.float32(src[i, j, k])
 
 
+@scalar(force_inline=True)
+def table_entry(v, lut_lo, lut_inv, n):
+    """Entry ``k0`` (at most ``n − 2``) and fraction of scalar ``v`` in a table of ``n`` entries,
+    clamped at both ends: the grid drivers' lookup (:func:`classify_columns`,
+    :func:`scattering_column`), whose last entry is the last cell at fraction 1."""
+    x = (v - lut_lo) * lut_inv
+    x = min(max(x, 0.0), n - 1.0)
+    k0 = min(int(x), n - 2)
+    return k0, x - k0
+
+
 @driver
 def classify_columns(field, table, lut_lo, lut_inv, col, out):
     """Columns ``col … col + ncomp − 1`` of ``table`` at every sample of the scalar ``field``
@@ -227,10 +238,7 @@ def classify_columns(field, table, lut_lo, lut_inv, col, out):
     for i in prange(nx):  # the last index innermost (C order)
         for j in range(ny):
             for k in range(nz):
-                x = (field[i, j, k] - lut_lo) * lut_inv
-                x = min(max(x, 0.0), n - 1.0)
-                k0 = min(int(x), n - 2)
-                f = x - k0
+                k0, f = table_entry(field[i, j, k], lut_lo, lut_inv, n)
                 for c in range(ncomp):
                     out[i, j, k, c] = (1.0 - f) * table[k0, col + c] + f * table[k0 + 1, col + c]
 
@@ -245,10 +253,7 @@ def scattering_column(field, table, lut_lo, lut_inv, col, sigma, out):
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
-                x = (field[i, j, k] - lut_lo) * lut_inv
-                x = min(max(x, 0.0), n - 1.0)
-                k0 = min(int(x), n - 2)
-                f = x - k0
+                k0, f = table_entry(field[i, j, k], lut_lo, lut_inv, n)
                 a = np.float32((1.0 - f) * table[k0, col] + f * table[k0 + 1, col])
                 out[i, j, k] = sigma[i, j, k] * a
 

@@ -381,3 +381,19 @@ def select_scalars(volume: Volume, scalars=None, *, component=None, name="scalar
     elif component not in (None, 0):
         raise ValueError(f"component={component!r} given but {name}={key!r} has one component")
     return a
+
+
+def as_float32_c(a) -> np.ndarray:
+    """``a`` as a C-ordered float32 array: ``a`` itself when it is one, else a copy made in parallel
+    (:func:`pv_ambient._kernels.medium.copy_float32`; NumPy's copy of a grid's x-fastest view runs
+    on one thread at a stride)."""
+    a = np.asarray(a)
+    if a.dtype == np.float32 and a.flags.c_contiguous:
+        return a
+    if a.ndim != 3 or a.size < 1 << 16:
+        return np.ascontiguousarray(a, dtype=np.float32)
+    from .._kernels.medium import copy_float32
+
+    out = np.empty(a.shape, np.float32)
+    copy_float32(a, out)
+    return out

@@ -159,22 +159,6 @@ def _lookup(optics, s, col, ncomp):
     return out
 
 
-def as_float32_c(a) -> np.ndarray:
-    """``a`` as a C-ordered float32 array: ``a`` itself when it is one, else a copy made in parallel
-    (:func:`pv_ambient._kernels.medium.copy_float32`; NumPy's copy of a grid's x-fastest view runs
-    on one thread at a stride)."""
-    a = np.asarray(a)
-    if a.dtype == np.float32 and a.flags.c_contiguous:
-        return a
-    if a.ndim != 3 or a.size < 1 << 16:
-        return np.ascontiguousarray(a, dtype=np.float32)
-    from .._kernels.medium import copy_float32
-
-    out = np.empty(a.shape, np.float32)
-    copy_float32(a, out)
-    return out
-
-
 def _digest(*arrays, extra="") -> str:
     h = hashlib.blake2b(digest_size=16)
     for a in arrays:
@@ -392,7 +376,7 @@ class TransferFunction:
     # -- resolution --------------------------------------------------------------------------
     def resolve(self, grid, *, scalars=None, component=None, nan_policy="raise", preference="point") -> Optics:
         """The :class:`Optics` of ``grid`` (a pyvista.ImageData or a :class:`~pv_ambient.inputs.grid.Volume`)."""
-        from .grid import Volume, select_scalars, volume_from_image
+        from .grid import Volume, as_float32_c, select_scalars, volume_from_image
 
         volume = grid if isinstance(grid, Volume) else volume_from_image(grid, preference=preference)
         if nan_policy not in ("raise", "vacuum"):

@@ -149,7 +149,8 @@ def test_large_fields_copied_in_parallel_equal_numpy_and_bounds_the_used_entries
     # a grid's x-fastest point data (Fortran-ordered) of any dtype, copied to C-ordered float32 by
     # the parallel kernel: NumPy's copy exactly; and the table bounds that model="auto" reads
     # (sigma_max, albedo_max) from the field's extremes equal those over every value
-    from pv_ambient.inputs.transfer import COL_ALBEDO, as_float32_c
+    from pv_ambient.inputs.grid import as_float32_c
+    from pv_ambient.inputs.transfer import COL_ALBEDO
 
     rng = np.random.default_rng(5)
     for a in (np.asfortranarray(rng.integers(-300, 300, (70, 50, 40)).astype(np.int16)),
