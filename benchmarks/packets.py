@@ -6,7 +6,9 @@ fixed when Numba is imported), the processes taken in turn, ``--rounds`` times; 
 ``--frames`` camera moves after a warm-up pair; the table gives the median frame per thread count.
 
 * packets, lane-by-lane loads: ``PV_AMBIENT_LANE_LOADS=1`` (``+prefer-no-gather`` on Zen 4/5);
-* packets, Numba's loads: the default (hardware gathers where LLVM picks them);
+* packets, Numba's loads: the default (hardware gathers where LLVM picks them; 512-bit vectors on
+  the Intel CPUs of ``cpu_features.WIDE_CPUS``);
+* packets, LLVM's vector width: ``PV_AMBIENT_WIDE_VECTORS=0`` (256 bits on Intel's AVX-512 CPUs);
 * one ray at a time: ``PV_AMBIENT_PACKETS=0``, the per-pixel march (same sample function).
 
     python benchmarks/packets.py --n 256 --size 512
@@ -22,6 +24,7 @@ import sys
 import time
 
 CONFIGS = [("packets, lane-by-lane loads", {"PV_AMBIENT_LANE_LOADS": "1"}), ("packets, Numba's loads (gathers)", {}),
+           ("packets, LLVM's vector width", {"PV_AMBIENT_WIDE_VECTORS": "0"}),
            ("one ray at a time", {"PV_AMBIENT_PACKETS": "0"})]
 
 
@@ -46,7 +49,7 @@ def child(n, size, frames):
 
 def run(n, size, frames, threads, env_extra):
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), **env_extra)
-    for var in ("NUMBA_CPU_FEATURES", "PV_AMBIENT_LANE_LOADS", "PV_AMBIENT_PACKETS"):
+    for var in ("NUMBA_CPU_FEATURES", "PV_AMBIENT_LANE_LOADS", "PV_AMBIENT_WIDE_VECTORS", "PV_AMBIENT_PACKETS"):
         if var not in env_extra:
             env.pop(var, None)
     proc = subprocess.run([sys.executable, __file__, "--child", "--n", str(n), "--size", str(size), "--frames",
@@ -92,7 +95,7 @@ def main(argv=None):
                         .rjust(12) for t in threads)
         lines.append(f"{name:36s}{cells}")
     lines += ["", "(×: speed-up over one ray at a time)", ""]
-    lines += [f"{name}: loads {pol['loads']} ({pol['why']})" for name, pol in policies.items()]
+    lines += [f"{name}: loads {pol['loads']}, vectors {pol.get('width')} ({pol['why']})" for name, pol in policies.items()]
     print("\n".join(lines))
 
 

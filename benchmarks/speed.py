@@ -603,7 +603,7 @@ def packet_line():
     if not packet.enabled():
         return "camera pass: the scalar driver everywhere (PV_AMBIENT_PACKETS=0)"
     return (f"camera pass: emission-absorption and baked single/ambient scattering and diffusion of a table TF in packets of "
-            f"{packet.LANES} rays, loads {pol['loads']} ({pol['why']}); the others one ray at a time")
+            f"{packet.LANES} rays, loads {pol['loads']}, vectors {pol['width']} ({pol['why']}); the others one ray at a time")
 
 
 def command_line():

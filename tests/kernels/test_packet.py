@@ -160,10 +160,10 @@ def test_step_table_columns():
 
 _ASM_SCRIPT = r"""
 import sys
+import pv_ambient as pa  # first: its vector policy is set before Numba is imported
 import numba
 import numpy as np
 import pyvista as pv
-import pv_ambient as pa
 from pv_ambient._kernels import packet
 from pv_ambient._kernels.cpu_features import load_policy
 g = pv.ImageData(dimensions=(6, 6, 6), spacing=(0.2,) * 3, origin=(-0.5,) * 3)
@@ -177,6 +177,7 @@ r.render(camera=pa.Camera((0, -3, 0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8),
 args = seen[0][1:] + packet.scratch()
 packet.PACKET_DRIVERS[4].compile(tuple(numba.typeof(a) for a in args))
 print("POLICY", load_policy()["loads"])
+print("WIDTH", load_policy()["width"].replace(" ", "_"))
 import llvmlite.binding as ll
 print("AVX2", int(bool(ll.get_host_cpu_features().get("avx2", False))))
 for model in (0, 4):  # emission-absorption, diffusion (the lit lane loops and the field's)
@@ -185,6 +186,7 @@ for model in (0, 4):  # emission-absorption, diffusion (the lit lane loops and t
     print(f"PACKED_FMA{model}", len(re.findall(r"vfmadd\w*ps\s+[^\n]*%[xyz]mm", asm)))
     print(f"NARROW_FMA{model}", len(re.findall(r"vfmadd\w*ps\s+[^\n]*%xmm", asm)))
     print(f"GATHERS{model}", len(re.findall(r"vgather\w+", asm)))
+    print(f"ZMM_FMA{model}", len(re.findall(r"vfmadd\w*ps\s+[^\n]*%zmm", asm)))
 """
 
 
@@ -193,14 +195,15 @@ def test_packet_driver_is_vectorised(tmp_path):
     diffusion's, which holds the lit lane loops and the field's) has packed float32 FMAs (the lane
     loops vectorised), on a CPU with AVX2 none of them 128-bit: the loops with float32 arithmetic touch
     no float64 field, which would make LLVM run them 4 lanes per instruction (docs/performance.rst,
-    "CPU camera pass"); with the lane-by-lane load policy, no hardware gathers."""
+    "CPU camera pass"); with the lane-by-lane load policy, no hardware gathers; with the 512-bit
+    policy, 512-bit FMAs."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PV_AMBIENT_PACKETS="1")
     env.pop("NUMBA_CPU_FEATURES", None)
     proc = subprocess.run([sys.executable, "-c", "import re\n" + _ASM_SCRIPT], env=env, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     found = dict(line.split(" ", 1) for line in proc.stdout.splitlines() if line.split(" ")[0] in
-                 ("POLICY", "AVX2", "PACKED_FMA0", "GATHERS0", "PACKED_FMA4", "GATHERS4", "NARROW_FMA0", "NARROW_FMA4"))
+                 ("POLICY", "WIDTH", "ZMM_FMA0", "ZMM_FMA4", "AVX2", "PACKED_FMA0", "GATHERS0", "PACKED_FMA4", "GATHERS4", "NARROW_FMA0", "NARROW_FMA4"))
     wide = found["AVX2"] == "1"
     for model in (0, 4):
         assert int(found[f"PACKED_FMA{model}"]) >= 4, found
@@ -208,22 +211,67 @@ def test_packet_driver_is_vectorised(tmp_path):
             assert int(found[f"NARROW_FMA{model}"]) == 0, found
         if found["POLICY"] == "lane by lane":
             assert int(found[f"GATHERS{model}"]) == 0, found
+        if found["WIDTH"] == "512_bits":
+            assert int(found[f"ZMM_FMA{model}"]) >= 4, found
 
 
 def test_load_policy(monkeypatch):
-    """The policy is chosen once, before Numba is imported; Numba's choice unless asked; a user's
-    NUMBA_CPU_FEATURES wins."""
+    """The policy is chosen once, before Numba is imported: 512-bit vectors on the Intel CPUs of
+    ``WIDE_CPUS`` unless ``PV_AMBIENT_WIDE_VECTORS=0``, lane-by-lane loads only when asked; a user's
+    NUMBA_CPU_FEATURES wins; nothing once Numba has been imported."""
+    import llvmlite.binding as ll
+
     pol = cpu_features.load_policy()
     assert pol["loads"] in ("lane by lane", "Numba's choice") and pol["why"]
+    assert pol["width"] in ("512 bits", "Numba's choice")
     if os.environ.get("PV_AMBIENT_LANE_LOADS") != "1":
         assert pol["loads"] == "Numba's choice"
-    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "why": ""})
+    set_here = "set with" in pol["why"]
+    if set_here:  # the process this test runs in: its features as the policy set them
+        assert (pol["width"] == "512 bits") == (ll.get_host_cpu_name() in cpu_features.WIDE_CPUS)
+        assert ("-prefer-256-bit" in os.environ["NUMBA_CPU_FEATURES"]) == (pol["width"] == "512 bits")
+    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "width": None, "why": ""})
     monkeypatch.setenv("NUMBA_CPU_FEATURES", "+avx2,+fma")
-    assert cpu_features.apply_load_policy() == {"loads": "Numba's choice",
+    assert cpu_features.apply_load_policy() == {"loads": "Numba's choice", "width": "Numba's choice",
                                                 "why": "NUMBA_CPU_FEATURES/NUMBA_CPU_NAME set by the user"}
-    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "why": ""})
+    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "width": None, "why": ""})
+    monkeypatch.setenv("NUMBA_CPU_FEATURES", "+avx512f,-prefer-256-bit")
+    assert cpu_features.apply_load_policy()["width"] == "512 bits"
+    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "width": None, "why": ""})
     monkeypatch.delenv("NUMBA_CPU_FEATURES")
     monkeypatch.delenv("NUMBA_CPU_NAME", raising=False)
+    monkeypatch.setenv("PV_AMBIENT_WIDE_VECTORS", "0")
+    assert cpu_features.apply_load_policy()["why"] == "PV_AMBIENT_WIDE_VECTORS=0"
+    monkeypatch.setattr(cpu_features, "_POLICY", {"loads": None, "width": None, "why": ""})
     monkeypatch.setenv("PV_AMBIENT_LANE_LOADS", "1")
     assert cpu_features.apply_load_policy()["why"] == "numba was imported before pv_ambient"
     assert "NUMBA_CPU_FEATURES" not in os.environ
+
+
+_WIDTH_SCRIPT = r"""
+import os
+os.environ.pop("NUMBA_CPU_FEATURES", None)
+import pv_ambient
+import llvmlite.binding as ll
+from pv_ambient._kernels.cpu_features import load_policy
+print("NAME", ll.get_host_cpu_name())
+print("WIDTH", load_policy()["width"])
+print("FEATS", os.environ.get("NUMBA_CPU_FEATURES", ""))
+"""
+
+
+def test_wide_vectors_in_a_fresh_process():
+    """A fresh process that imports pv_ambient before Numba: on a CPU of ``WIDE_CPUS`` Numba's features
+    are the host's with ``-prefer-256-bit``; elsewhere, or with ``PV_AMBIENT_WIDE_VECTORS=0``, they
+    are left to Numba."""
+    for opt_out in ("1", "0"):
+        env = dict(os.environ, PV_AMBIENT_WIDE_VECTORS=opt_out)
+        env.pop("NUMBA_CPU_FEATURES", None)
+        env.pop("PV_AMBIENT_LANE_LOADS", None)
+        proc = subprocess.run([sys.executable, "-c", _WIDTH_SCRIPT], env=env, capture_output=True, text=True,
+                              timeout=300)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        found = dict((line.split(" ", 1) + [""])[:2] for line in proc.stdout.splitlines())
+        wide = found["NAME"] in cpu_features.WIDE_CPUS and opt_out == "1"
+        assert found["WIDTH"] == ("512 bits" if wide else "Numba's choice"), found
+        assert ("-prefer-256-bit" in found["FEATS"]) == wide, found
