@@ -174,3 +174,17 @@ def masked_min(values, mask):
                     low = values[i, j, k]
         lows[i] = low
     return lows.min() if n0 else np.inf
+
+
+@scalar
+def run_end(px, py, pz, qx, qy, qz, a, b, c, t, t1, maj, block):
+    """Where the run of non-empty blocks that block (a, b, c) starts at ``t`` ends along ray
+    ``p + t·q`` (clipped to ``t1``): the walk (:func:`walk_step`) from that block to the first empty
+    block, the grid's edge or ``t1``. The packet driver marches to it without a block lookup — in
+    the per-pixel march a lookup at a boundary between non-empty blocks changes nothing but the
+    next boundary (docs/performance.rst, "CPU camera pass")."""
+    walk = (a, b, c, t)
+    while True:
+        walk, ta, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
+        if tb >= t1 or tb <= ta or maj[walk[0], walk[1], walk[2]] <= 0.0:
+            return tb

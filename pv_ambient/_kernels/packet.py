@@ -6,12 +6,15 @@ The march is the one of :func:`.raycast.march_pixel` — the same segments, bloc
 termination and jitter — split in three passes per step of the packet:
 
 1. :func:`lanes_step` (vectorised): every lane whose next segment is a full step inside its current
-   non-empty majorant block moves to it — the common case;
+   run of non-empty majorant blocks moves to it — the common case;
 2. :func:`lanes_fix` (scalar): the other lanes do what :func:`.raycast.march_pixel` does at a block
    boundary, on a partial segment (the jittered first, the last: ``exp`` of the table's σt)
    and at the end of the ray, until each has a full segment to sample or is done — called only on
    a step where pass 1 left a lane (a call with the scene's records and a scalar loop over the
-   lanes is what most steps of a packet do not need);
+   lanes is what most steps of a packet do not need). Where it looks a block up and finds it
+   non-empty, it walks on to the end of the run of non-empty blocks (:func:`.majorant.run_end`):
+   the per-pixel march's lookups inside such a run change nothing but its next boundary, so the
+   samples are the same and a lane comes back here only at the run's end;
 3. :func:`lanes_sample_ea`, or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
    :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
    functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
@@ -47,7 +50,7 @@ import numpy as np
 
 from ._jit import driver, prange, scalar, with_globals
 from .geometry import camera_ray, ray_box
-from .majorant import block_at, block_span
+from .majorant import block_at, block_span, run_end
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
                      step_sample)
 from .models import AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
@@ -118,12 +121,13 @@ def packet_begin(view, march, i0, j0, row1, W, H, l32, b32, l64, b64):
 
 
 @scalar(inline=True)
-def lanes_step(l32, b32, l64, b64, step, ert):
+def lanes_step(l32, b32, l64, b64, step, ert, world):
     """Pass 1 (vectorised): each lane whose next segment ``[t, tnext]`` is a full step that ends
-    before the ray does, whose midpoint lies in the current non-empty block and whose transmittance
-    is still above ``ert`` takes it: its sample position is written and ``t`` moves on. Other lanes
-    are left to :func:`lanes_fix`. Returns how many lanes moved (all of them: no lane for
-    :func:`lanes_fix` this step, the common case)."""
+    before the ray does, whose midpoint lies in the current run of non-empty blocks and whose
+    transmittance is still above ``ert`` takes it: its sample position is written (the world
+    position too where ``world``, a constant of the driver: the lit models' point lights) and ``t``
+    moves on. Other lanes are left to :func:`lanes_fix`. Returns how many lanes moved (all of them:
+    no lane for :func:`lanes_fix` this step, the common case)."""
     moved = 0
     for k in range(LANES):
         t = l64[np.uint64(b64 + TS * LANES + k)]
@@ -138,12 +142,13 @@ def lanes_step(l32, b32, l64, b64, step, ert):
                                                          + tm * l64[np.uint64(b64 + QY * LANES + k)])
         l32[np.uint64(b32 + Z * LANES + k)] = np.float32(l64[np.uint64(b64 + PZ * LANES + k)]
                                                          + tm * l64[np.uint64(b64 + QZ * LANES + k)])
-        l32[np.uint64(b32 + WX * LANES + k)] = np.float32(l64[np.uint64(b64 + OX * LANES + k)]
-                                                          + tm * l64[np.uint64(b64 + DX * LANES + k)])
-        l32[np.uint64(b32 + WY * LANES + k)] = np.float32(l64[np.uint64(b64 + OY * LANES + k)]
-                                                          + tm * l64[np.uint64(b64 + DY * LANES + k)])
-        l32[np.uint64(b32 + WZ * LANES + k)] = np.float32(l64[np.uint64(b64 + OZ * LANES + k)]
-                                                          + tm * l64[np.uint64(b64 + DZ * LANES + k)])
+        if world:
+            l32[np.uint64(b32 + WX * LANES + k)] = np.float32(l64[np.uint64(b64 + OX * LANES + k)]
+                                                              + tm * l64[np.uint64(b64 + DX * LANES + k)])
+            l32[np.uint64(b32 + WY * LANES + k)] = np.float32(l64[np.uint64(b64 + OY * LANES + k)]
+                                                              + tm * l64[np.uint64(b64 + DY * LANES + k)])
+            l32[np.uint64(b32 + WZ * LANES + k)] = np.float32(l64[np.uint64(b64 + OZ * LANES + k)]
+                                                              + tm * l64[np.uint64(b64 + DZ * LANES + k)])
         l32[np.uint64(b32 + ACT * LANES + k)] = np.float32(1.0) if ok else np.float32(0.0)
         l64[np.uint64(b64 + TS * LANES + k)] = tn if ok else t
         l64[np.uint64(b64 + TN * LANES + k)] = tn + step if ok else tn
@@ -205,7 +210,8 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
                     t = te
                     tnext = te + step
                     continue
-                t_block = tex
+                # march to the end of this run of non-empty blocks before the next lookup
+                t_block = run_end(px, py, pz, qx, qy, qz, ba, bb, bc, tm, t1, maj, block)
             if full_segment(t, te, step) != 0.0:
                 l32[b32 + X * LANES + k] = x
                 l32[b32 + Y * LANES + k] = y
@@ -436,7 +442,7 @@ def packet_driver(model):
                 for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
                     packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
                     while True:
-                        if lanes_step(l32, b32, l64, b64, step, ert) < LANES and lanes_fix(
+                        if lanes_step(l32, b32, l64, b64, step, ert, model != EMISSION_ABSORPTION) < LANES and lanes_fix(
                                 model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
                             break
                         sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)  # noqa: F821
