@@ -73,7 +73,10 @@ def exit_t(x, v, n):
 def write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur):
     """Store node (k, ib, ic)'s path-mean extinction in ``cur`` and its τ in ``out`` (a point light:
     only if ``axis``, the sweep's axis in the unpermuted grid, is the node's dominant axis — ties
-    decided in the unpermuted axis order, as :func:`.lightvol.sweep_node` decides them)."""
+    decided in the unpermuted axis order, as :func:`.lightvol.sweep_node` decides them). ``out`` is
+    the grid in its own order: the node of permuted (k, ib, ic) is written where it lies there,
+    so a sweep needs no permuted result array of its own (a 256³ grid's 64 MB, fresh memory in
+    every relight) and no copy back."""
     cur[ib, ic] = tau / ln if ln > 0.0 else sig[k, ib, ic]
     if is_point:
         d0 = abs(l0 - k)
@@ -87,7 +90,12 @@ def write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur):
             dom = dominant_axis(d1, d2, d0)
         if dom != axis:
             return
-    out[k, ib, ic] = tau
+    if axis == 0:
+        out[k, ib, ic] = tau
+    elif axis == 1:
+        out[ib, k, ic] = tau
+    else:
+        out[ib, ic, k] = tau
 
 
 @scalar(force_inline=True)
@@ -255,9 +263,9 @@ def chunks() -> int:
 
 @driver
 def sweep_rows(sig, B, is_point, l0, l1, l2, axis, sign, jump, out, hist, reach, inside, scratch):
-    """One sweep along axis 0 of the permuted arrays ``sig`` and ``out`` (C order, the grid's axis
-    ``axis`` first, the other two in their order; ``B``'s columns and the light (l0, l1, l2)
-    permuted alike) in direction ``sign``: the CPU driver of
+    """One sweep along axis 0 of the permuted array ``sig`` (C order, the grid's axis ``axis`` first,
+    the other two in their order; ``B``'s columns and the light (l0, l1, l2) permuted alike) in
+    direction ``sign``, its nodes written into ``out`` in the grid's own order (:func:`write_node`): the CPU driver of
     :func:`pv_ambient.stages.propagation.optical_depth` for a directional light, by
     :func:`sweep_row` in parallel over the rows of up to ``jump`` layers at once.
 
@@ -323,7 +331,8 @@ def sweep_rows_each(sigs, Bs, ls, outs, axes, signs, jump, hists, reaches, rows,
     thread, each on one thread (:func:`sweep_serial`). Why: the sweeps are independent (each writes
     the nodes of its own pyramid), and a sweep parallel over a layer's rows waits for every thread
     at each of its layers, which under load (another process holding a core) costs more than the
-    sweep. ``sigs``, ``outs``, ``Bs``: per grid axis, the permuted σt, result and ``B``; ``ls[a]``
+    sweep. ``sigs``, ``Bs``: per grid axis, the permuted σt and ``B``; ``outs``: per grid axis the
+    result, the one grid-ordered array (each sweep writes the nodes of its own pyramid); ``ls[a]``
     the light in axis ``a``'s permuted order; sweep ``i`` runs along ``axes[i]`` in direction
     ``signs[i]`` with ``hists[i]``, ``reaches[i]`` and the scratch ``rows[i]`` (≥ 4·jump + 4, nc + 1)."""
     for i in prange(len(axes)):
@@ -331,8 +340,8 @@ def sweep_rows_each(sigs, Bs, ls, outs, axes, signs, jump, hists, reaches, rows,
         sweep_serial(sigs[a], Bs[a], True, ls[a, 0], ls[a, 1], ls[a, 2], a, signs[i], jump, outs[a], hists[i],
                      reaches[i], rows[i], inside)
 
-#: Edge of the tiles in which :func:`permute` and :func:`unpermute_add` move data between the
-#: grid's order and a sweep's (both sides of a tile stay in cache).
+#: Edge of the tiles in which :func:`permute` moves data from the grid's order into a sweep's
+#: (both sides of a tile stay in cache).
 TILE = 32
 
 
@@ -354,21 +363,3 @@ def permute(src, a, dst):
                     for k in range(k0, min(k0 + TILE, n2)):
                         for j in range(j0, min(j0 + TILE, n1)):
                             dst[k, i, j] = src[i, j, k]
-
-
-@driver
-def unpermute_add(src, a, dst):
-    """``dst += src`` moved back from a sweep's layout (:func:`permute`'s inverse), tiled, in parallel."""
-    n0, n1, n2 = dst.shape
-    if a == 1:
-        for i in prange(n0):
-            for j in range(n1):
-                for k in range(n2):
-                    dst[i, j, k] += src[j, i, k]
-    else:
-        for i in prange(n0):
-            for j0 in range(0, n1, TILE):
-                for k0 in range(0, n2, TILE):
-                    for j in range(j0, min(j0 + TILE, n1)):
-                        for k in range(k0, min(k0 + TILE, n2)):
-                            dst[i, j, k] += src[k, i, j]

@@ -163,27 +163,25 @@ def optical_depth(sig_l, grid: LightGrid, geometry, light, jump=JUMP, device_cac
 
 
 def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
-    """:func:`optical_depth`'s sweeps by the CPU row driver: per sweep axis, σt (and the result) in
-    a copy with that axis first (:mod:`pv_ambient._kernels.lightsweep`: a layer's rows then run
-    along memory); the result is added back into ``out``, where a point light's sweeps of the other
-    axes wrote their nodes (each node is written by one sweep, the rest stay 0). A point light's
-    sweeps run side by side (:func:`~pv_ambient._kernels.lightsweep.sweep_rows_each`), a
-    directional light's one sweep in parallel over the rows of ``jump`` layers at a time
-    (:func:`~pv_ambient._kernels.lightsweep.sweep_rows`)."""
-    from .._kernels.lightsweep import chunks, permute, sweep_rows, sweep_rows_each, unpermute_add
+    """:func:`optical_depth`'s sweeps by the CPU row driver: per sweep axis, σt in a copy with that
+    axis first (:mod:`pv_ambient._kernels.lightsweep`: a layer's rows then run along memory); each
+    sweep writes its nodes into ``out`` in the grid's own order (a point light's sweeps write
+    disjoint nodes). A point light's sweeps run side by side
+    (:func:`~pv_ambient._kernels.lightsweep.sweep_rows_each`), a directional light's one sweep in
+    parallel over the rows of ``jump`` layers at a time (:func:`~pv_ambient._kernels.lightsweep.sweep_rows`)."""
+    from .._kernels.lightsweep import chunks, permute, sweep_rows, sweep_rows_each
 
     shape = grid.shape
     inside = bool(is_point and all(0.0 <= light[i] <= shape[i] - 1.0 for i in range(3)))
     axes = sorted({a for a, _ in sweeps})
     order = {a: [a] + [i for i in range(3) if i != a] for a in axes}
-    sig_p, out_p = {}, {}
+    sig_p = {}
     for a in axes:
         if a == 0:
-            sig_p[a], out_p[a] = np.ascontiguousarray(sig_l), out  # one array type for the kernels' tuples
+            sig_p[a] = np.ascontiguousarray(sig_l)  # one array type for the kernels' tuples
         else:
             sig_p[a] = np.empty(tuple(shape[i] for i in order[a]), sig_l.dtype)
             permute(np.ascontiguousarray(sig_l), a, sig_p[a])
-            out_p[a] = np.zeros(sig_p[a].shape, np.float32)
     B_p = {a: np.ascontiguousarray(grid.B[:, order[a]]) for a in axes}
     l_p = {a: np.array([light[i] for i in order[a]]) for a in axes}
 
@@ -196,17 +194,14 @@ def _sweep_rows(sig_l, grid, is_point, light, sweeps, jump, out):
     if is_point and axes == [0, 1, 2]:
         hists, reaches, rows = zip(*[scratch(a, s, jump + 1) for a, s in sweeps])
         sweep_rows_each(tuple(sig_p[a] for a in axes), tuple(B_p[a] for a in axes), np.stack([l_p[a] for a in axes]),
-                        tuple(out_p[a] for a in axes), np.array([a for a, _ in sweeps]),
+                        tuple(out for a in axes), np.array([a for a, _ in sweeps]),
                         np.array([s for _, s in sweeps]), jump, hists, reaches, rows, inside)
     else:
         for a, s in sweeps:
             hist, reach, _ = scratch(a, s, max(2 * jump, jump + 1))
             lp = l_p[a]
             rows = np.empty((chunks(), 4 * jump + 4, sig_p[a].shape[2] + 1))
-            sweep_rows(sig_p[a], B_p[a], is_point, lp[0], lp[1], lp[2], a, s, jump, out_p[a], hist, reach, inside, rows)
-    for a in axes:
-        if a != 0:
-            unpermute_add(out_p[a], a, out)
+            sweep_rows(sig_p[a], B_p[a], is_point, lp[0], lp[1], lp[2], a, s, jump, out, hist, reach, inside, rows)
 
 
 def sweep_reach(shape, light, axis, sign, jump) -> np.ndarray:
