@@ -11,6 +11,7 @@ inputs, so a camera move computes none of them and a relight only the moved ligh
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -61,6 +62,9 @@ class SceneStages:
         self.cache = SceneCache() if cache is None else cache
         self.timings = {}
         self._device = _DeviceSlot()
+        #: optical depths of lights that left, held until the light that replaced them is swept
+        #: into one (:meth:`keep_lights`)
+        self._spare = []
         #: (lights, model) pairs whose pictures decided the "rendered black" check
         #: (:func:`pv_ambient.rendering.request.warn_black`): its causes do not move with the camera
         self.black_checked = set()
@@ -70,6 +74,7 @@ class SceneStages:
         # upload what they need there
         state = self.__dict__.copy()
         state["_device"] = _DeviceSlot()
+        state["_spare"] = []
         return state
 
     def with_optics(self, optics) -> "SceneStages":
@@ -183,9 +188,24 @@ class SceneStages:
 
         key = ("tau", light, grid.key())
         if key not in self.cache:
+            out = self._take_spare(grid.shape)
             self.cache[key] = self._timed(f"light volume {light}", lambda: optical_depth(
-                self.sigma_on_light_grid(grid), grid, self.geometry, light, device_cache=self.device_for(backend)))
+                self.sigma_on_light_grid(grid), grid, self.geometry, light, device_cache=self.device_for(backend),
+                out=out))
         return self.cache[key]
+
+    def _take_spare(self, shape):
+        """An optical depth of a light that left, of ``shape``, to sweep the next one into (None if
+        there is none). Why: a 256³ optical depth is 64 MB, and the first writes to freshly allocated
+        memory cost more than the sweep's own writes (docs/performance.rst, "Relight: the light
+        sweep"); its GPU copy, if any, is forgotten."""
+        for i, arr in enumerate(self._spare):
+            if arr.shape == tuple(shape):
+                del self._spare[i]
+                if self._device.cache is not None:
+                    self._device.cache.forget(arr)
+                return arr
+        return None
 
     def keep_lights(self, lights):
         """Drop the per-light entries (optical depths, tube fronts, reach checks, diffusion
@@ -195,8 +215,11 @@ class SceneStages:
         visits would otherwise keep its volumes (a 256³ optical depth is 67 MB) for the life of
         the renderer."""
         current = set(lights)
+        dropped = []
         for key in self.cache.keys():
             if key[0] in ("tau", "front", "reaches") and key[1] not in current:
+                if key[0] == "tau":
+                    dropped.append(self.cache[key])
                 del self.cache[key]
             elif key[0] == "diffusion_sum" and any(part[1] not in current for part in key[1]):
                 del self.cache[key]
@@ -206,6 +229,11 @@ class SceneStages:
             for key in gone:
                 if latest[key[2:]] != key:
                     del self.cache[key]
+        # an optical depth no one else holds (a renderer sharing this cache would) is kept for a new
+        # light's sweep, as many as there are lights still to sweep
+        swept = {k[1] for k in self.cache.keys("tau")}
+        free = [a for a in dropped if isinstance(a, np.ndarray) and a.flags.writeable and sys.getrefcount(a) <= 3]
+        self._spare = free[:len(current - swept)]
 
     def scattering_nodes(self, grid):
         """The light-grid nodes nearest to a data sample that scatters (cached)."""

@@ -3,6 +3,8 @@ but the ray cast, a relight only the moved light's entries — and the renderers
 that share its σt-only entries."""
 import pickle
 
+import weakref
+
 import numpy as np
 
 import pv_ambient as pa
@@ -106,6 +108,40 @@ def test_relights_keep_only_the_current_lights_volumes():
         assert len(solved) == 3 and moved in solved and LIGHTS[1] in solved  # and the one that left last
     r.set_lights([LIGHTS[1]])
     assert {k[1] for k in r.cache.keys("tau")} == {LIGHTS[1]}
+
+
+def test_relight_sweeps_into_the_optical_depth_of_the_light_that_left():
+    """A relight (one of two lights moved) sweeps the moved light's τ into the array of the light
+    that left (no fresh 64 MB at 256³; docs/performance.rst, "Relight: the light sweep"), with
+    the values of a sweep into a new array; a renderer sharing the cache keeps its arrays (they
+    are not reused), and removing a light keeps no spare."""
+    from pv_ambient.stages.propagation import optical_depth
+
+    r = renderer(physical_grid())
+    render(r, "single_scattering")
+    (old_key,) = [k for k in r.cache.keys("tau") if k[1] == LIGHTS[0]]
+    old = weakref.ref(r.cache[old_key])  # a reference held here would keep it from being reused
+    moved = PointLight((-0.25, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
+    r.set_lights([moved, LIGHTS[1]])
+    render(r, "single_scattering")
+    (new_key,) = [k for k in r.cache.keys("tau") if k[1] == moved]
+    tau = r.cache[new_key]
+    assert old() is tau
+    (grid,) = [r.cache[k] for k in r.cache.keys("light_grid") if r.cache[k].key() == new_key[2]]
+    fresh = optical_depth(r.stages.sigma_on_light_grid(grid), grid, r.stages.geometry, moved)
+    assert np.array_equal(tau, fresh)
+    # a second renderer holding the same arrays: nothing is reused under it
+    other = renderer(physical_grid(), [moved, LIGHTS[1]])
+    other.cache.share(r.cache, kinds=("tau",))
+    held = weakref.ref(r.cache[new_key])
+    del tau
+    again = PointLight((-0.2, -1.6, 0.9), intensity=(3.0, 2.5, 2.0))
+    r.set_lights([again, LIGHTS[1]])
+    render(r, "single_scattering")
+    (k2,) = [k for k in r.cache.keys("tau") if k[1] == again]
+    assert held() is not None and r.cache[k2] is not held() and np.array_equal(held(), fresh)
+    r.set_lights([LIGHTS[1]])
+    assert r.stages._spare == []
 
 
 def test_relight_starts_warm_from_the_moved_light(monkeypatch):
