@@ -197,10 +197,10 @@ def d_node(D, a_nodes, it, tt, na, a):
 
 
 @scalar(inline=True)
-def chunk_store(model, dgrid, nch, q0, add, ui, uj, k0, m2, s, b, out):
+def chunk_store(model, dgrid, dscale, nch, q0, add, ui, uj, k0, m2, s, b, out):
     """Pass 2: ``(E T p + E Φ D)·max(d², d2min)`` of the chunk's nodes in the row added to slot
-    ``q0`` (``add``), or written there; D from ``dgrid`` (:func:`ball_d_rows`: one channel when the
-    ball's albedo is grey)."""
+    ``q0`` (``add``), or written there; D = ``dgrid × dscale`` (:func:`ball_d_rows`: one channel
+    when the ball's albedo is grey)."""
     n = min(CHUNK, m2 - k0)
     uq0 = np.uint64(q0)
     dg = np.uint64(min(1, dgrid.shape[3] - 1))
@@ -213,9 +213,9 @@ def chunk_store(model, dgrid, nch, q0, add, ui, uj, k0, m2, s, b, out):
         sg = s[np.uint64(b + SG * CHUNK + q)]
         sb = s[np.uint64(b + SB * CHUNK + q)]
         if model == AMBIENT_SCATTERING:
-            sr += s[np.uint64(b + FR * CHUNK + q)] * dgrid[ui, uj, k, ZERO]
-            sg += s[np.uint64(b + FG * CHUNK + q)] * dgrid[ui, uj, k, dg]
-            sb += s[np.uint64(b + FB * CHUNK + q)] * dgrid[ui, uj, k, db]
+            sr += s[np.uint64(b + FR * CHUNK + q)] * (dscale * float(dgrid[ui, uj, k, ZERO]))
+            sg += s[np.uint64(b + FG * CHUNK + q)] * (dscale * float(dgrid[ui, uj, k, dg]))
+            sb += s[np.uint64(b + FB * CHUNK + q)] * (dscale * float(dgrid[ui, uj, k, db]))
         out[ui, uj, k, uq0] = keep * out[ui, uj, k, uq0] + sr * d2c
         if nch == 3:
             out[ui, uj, k, uq0 + np.uint64(1)] = keep * out[ui, uj, k, uq0 + np.uint64(1)] + sg * d2c
@@ -223,25 +223,36 @@ def chunk_store(model, dgrid, nch, q0, add, ui, uj, k0, m2, s, b, out):
 
 
 @scalar(inline=True)
-def chunk_d(D, a_nodes, nch, ui, uj, k0, m2, s, b, out):
-    """Pass 3 of :func:`ball_d_rows`: D at each node's τ and albedo per channel, written to ``out``."""
+def chunk_d(D, a_nodes, nch, inv_scale, ui, uj, k0, m2, s, b, out):
+    """Pass 3 of :func:`ball_d_rows`: D at each node's τ and albedo per channel, written to ``out``
+    in units of ``1 / inv_scale`` (uint16, rounded to the nearest)."""
     n = min(CHUNK, m2 - k0)
     for q in range(n):
         k = np.uint64(k0 + q)
         it = np.uint64(np.uint32(s[np.uint64(b + IT * CHUNK + q)]))
         tt = s[np.uint64(b + TT * CHUNK + q)]
-        out[ui, uj, k, ZERO] = d_node(D, a_nodes, it, tt, s[np.uint64(b + NR * CHUNK + q)], s[np.uint64(b + AR * CHUNK + q)])
+        out[ui, uj, k, ZERO] = d_units(d_node(D, a_nodes, it, tt, s[np.uint64(b + NR * CHUNK + q)],
+                                              s[np.uint64(b + AR * CHUNK + q)]), inv_scale)
         if nch == 3:
-            out[ui, uj, k, ONE] = d_node(D, a_nodes, it, tt, s[np.uint64(b + NG * CHUNK + q)],
-                                         s[np.uint64(b + AG * CHUNK + q)])
-            out[ui, uj, k, TWO] = d_node(D, a_nodes, it, tt, s[np.uint64(b + NB * CHUNK + q)],
-                                         s[np.uint64(b + AB * CHUNK + q)])
+            out[ui, uj, k, ONE] = d_units(d_node(D, a_nodes, it, tt, s[np.uint64(b + NG * CHUNK + q)],
+                                                 s[np.uint64(b + AG * CHUNK + q)]), inv_scale)
+            out[ui, uj, k, TWO] = d_units(d_node(D, a_nodes, it, tt, s[np.uint64(b + NB * CHUNK + q)],
+                                                 s[np.uint64(b + AB * CHUNK + q)]), inv_scale)
+
+
+@scalar(inline=True)
+def d_units(d, inv_scale):
+    """D in the units of :class:`pv_ambient.stages.bake.BallD`, rounded, clamped to [0, 65535]."""
+    u = d * inv_scale + 0.5
+    u = u if u > 0.0 else 0.0
+    return np.uint16(u if u < 65535.0 else 65535.0)
 
 
 @driver
-def ball_d_rows(ball, D, a_nodes, radius, tau_lo_log, tau_dlog, out, s):
+def ball_d_rows(ball, D, a_nodes, radius, tau_lo_log, tau_dlog, inv_scale, out, s):
     """D(r σ̄, ā) of an isotropic phase function at every data sample, per channel: ``out`` (m0, m1,
-    m2, nch) float32, ``nch`` 3 or 1 (a grey ball albedo: the red channel's); ``ball`` (m0, m1, m2,
+    m2, nch) uint16 in units of ``1 / inv_scale`` (:class:`pv_ambient.stages.bake.BallD`), ``nch``
+    3 or 1 (a grey ball albedo: the red channel's); ``ball`` (m0, m1, m2,
     4) the ball grid, ``D`` (n_a, n_tau, 1) the table slice (:func:`.raycast.d_lookup3` at every
     node, in chunks of a row). It depends on the transfer function and the radius, not on the
     lights: a relight's bake (:func:`bake_rows`) reads it instead of the ball."""
@@ -259,16 +270,16 @@ def ball_d_rows(ball, D, a_nodes, radius, tau_lo_log, tau_dlog, out, s):
                 k0 = c * CHUNK
                 chunk_ball(ball, n_tau, tau1, radius, tau_lo_log, tau_dlog, ui, uj, k0, m2, s, b)
                 chunk_albedo(a_nodes, nch, s, b)
-                chunk_d(D, a_nodes, nch, ui, uj, k0, m2, s, b, out)
+                chunk_d(D, a_nodes, nch, inv_scale, ui, uj, k0, m2, s, b, out)
 
 
 @driver
-def bake_rows(model, lights, tau, dgrid, radius, w2i, i2w, nch, q0, add, out, s):
+def bake_rows(model, lights, tau, dgrid, dscale, radius, w2i, i2w, nch, q0, add, out, s):
     """Adds light 0 of ``lights`` (one point or directional light) to slot ``q0`` of ``out`` (m0, m1,
     m2, slots·nch) — or, ``add`` false, writes it there — its nodes the data samples:
     :func:`.bake.bake_incident` for the case of this module's docstring, in chunks of a row. ``tau``
-    (m0, m1, m2, 1) the light's optical depth (its front too), ``dgrid`` ambient scattering's D per
-    node (:func:`ball_d_rows`); ``s`` :func:`scratch`."""
+    (m0, m1, m2, 1) the light's optical depth (its front too), ``dgrid × dscale`` ambient
+    scattering's D per node (:func:`ball_d_rows`); ``s`` :func:`scratch`."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
     p = INV_4PI  # the isotropic phase function (phase_eval's value for every angle)
     nchunk = (m2 + CHUNK - 1) // CHUNK
@@ -283,4 +294,4 @@ def bake_rows(model, lights, tau, dgrid, radius, w2i, i2w, nch, q0, add, out, s)
                 chunk_direct(lights, point, tau, i2w, p, ui, uj, k0, m2, s, b)
                 if model == AMBIENT_SCATTERING:
                     chunk_front(lights, point, tau, w2i, i2w, radius, ui, uj, k0, m2, s, b)
-                chunk_store(model, dgrid, nch, q0, add, ui, uj, k0, m2, s, b, out)
+                chunk_store(model, dgrid, dscale, nch, q0, add, ui, uj, k0, m2, s, b, out)

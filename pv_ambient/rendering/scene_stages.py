@@ -137,11 +137,13 @@ class SceneStages:
         (:func:`pv_ambient.stages.ball.ball_grid`; cached per radius)."""
         from ..stages.ball import ball_grid
 
-        sigma = self.sigma_samples()
-        return self.cache.get(("ball", float(radius)), lambda: ball_grid(
-            sigma, self.optics.albedo_channel, self.geometry.spacing, radius,
-            same_as_previous=self.optics.albedo_same_as_previous(),
-            scattering=lambda c: self.optics.scattering_channel(c, sigma)))
+        def build():
+            sigma = self.sigma_samples()
+            return ball_grid(sigma, self.optics.albedo_channel, self.geometry.spacing, radius,
+                             same_as_previous=self.optics.albedo_same_as_previous(),
+                             scattering=lambda c: self.optics.scattering_channel(c, sigma))
+
+        return self.cache.get(("ball", float(radius)), build)
 
     def albedo_range(self, radius):
         """(min, max) of the ball-mean albedo over the medium (cached with the ball grid: every
@@ -313,8 +315,8 @@ class SceneStages:
         (:func:`pv_ambient.stages.bake.ball_d`; cached per radius and table slice): what ambient
         scattering's bake reads on the row driver. The ball grid it is made from is dropped from the
         cache then — the baked camera pass reads neither — and rebuilt if a per-sample render asks
-        for it: the two together would hold seven volumes of float32 where D holds three (one for a
-        grey albedo)."""
+        for it: the two together would hold five and a half volumes of float32 where D, in 16 bits
+        (:class:`pv_ambient.stages.bake.BallD`), holds one and a half (half for a grey albedo)."""
         from ..stages.bake import ball_d
 
         key = ("ball_d", float(radius), self.table_key(phase, radius, quality))
@@ -362,11 +364,21 @@ class SceneStages:
                     if isinstance(lt, PointLight) and lt in old_lights:
                         q = old_slots[old_lights.index(lt)] * nch
                         reuse[j] = inc[..., q:q + nch]
+            if into is None:
+                self._release_sigma()
             value = self._timed("baked in-scattering", lambda: bake_incident(model_id, records, self.geometry, grid,
                                                                              taus, phis, diffusion, reuse, into=into,
                                                                              dgrid=dgrid))
             self._replace("incident", key, value)
         return self.cache[key]
+
+    def _release_sigma(self):
+        """Drop σt (the data samples' and the light grids') from the cache before a new bake array is
+        made: the bake reads the lights' optical depths, not σt, and a new bake (a first frame) is
+        where a render's memory peaks. The next sweep classifies again (0.1 s at 256³); a relight
+        rebakes in place and keeps it (docs/performance.rst, "Memory")."""
+        for key in self.cache.keys("sigma_l"):
+            del self.cache[key]
 
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
                   sweep_orders=0, tol=None, coarse=False):

@@ -5,12 +5,28 @@ move instead of evaluating every light at every sample."""
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .._kernels import records as K
 
+class BallD(NamedTuple):
+    """Ambient scattering's D(r σ̄, ā) per data sample (:func:`ball_d`) in 16 bits: ``values``
+    (nx, ny, nz, nch) uint16, D = ``values × scale``. ``scale`` is the preintegrated table's largest
+    D over 65535 — D at a sample interpolates the table, so it never exceeds that — and the error
+    is at most half a step, 7.7e-6 of the table's largest D (docs/performance.rst, "Memory")."""
+
+    values: np.ndarray
+    scale: float
+
+    @property
+    def shape(self):
+        return self.values.shape
+
+
 #: The D grid a bake without ambient scattering passes (not read).
-NO_D = np.zeros((1, 1, 1, 1), np.float32)
+NO_D = BallD(np.zeros((1, 1, 1, 1), np.uint16), 0.0)
 
 
 def grey_ball(ball) -> bool:
@@ -19,18 +35,23 @@ def grey_ball(ball) -> bool:
                                      and np.array_equal(ball[..., 1], ball[..., 3]))
 
 
-def ball_d(ball, table, radius) -> np.ndarray:
-    """D(r σ̄, ā) of an isotropic phase function per data sample and channel, float32 (nx, ny, nz,
-    3), or (…, 1) where the ball's albedo is grey (:func:`grey_ball`): what ambient scattering's
-    bake reads instead of the ball grid (:func:`pv_ambient._kernels.bake_rows.ball_d_rows`; it
-    depends on the transfer function and r, not on the lights). ``table`` is the preintegrated
-    slice (``lookup_args()``: D without an angle axis)."""
+def ball_d(ball, table, radius) -> BallD:
+    """D(r σ̄, ā) of an isotropic phase function per data sample and channel, a :class:`BallD`
+    (nx, ny, nz, 3), or (…, 1) where the ball's albedo is grey (:func:`grey_ball`): what ambient
+    scattering's bake reads instead of the ball grid
+    (:func:`pv_ambient._kernels.bake_rows.ball_d_rows`; it depends on the transfer function and r,
+    not on the lights). ``table`` is the preintegrated slice (``lookup_args()``: D without an angle
+    axis). Why 16 bits: D is kept from one relight to the next, beside the bake, and at 256³ its
+    three channels in float32 were 192 MB — the largest volume after the bake at the first frame's
+    peak of memory."""
     from .._kernels.bake_rows import ball_d_rows, scratch
 
     D, _, a_nodes, lo_log, dlog = table.lookup_args()
-    out = np.empty(tuple(ball.shape[:3]) + (1 if grey_ball(ball) else 3,), np.float32)
-    ball_d_rows(ball, D, a_nodes, float(radius), float(lo_log), float(dlog), out, scratch())
-    return out
+    d_max = float(np.max(D)) if D.size else 0.0
+    scale = d_max / 65535.0 if d_max > 0.0 else 1.0
+    out = np.empty(tuple(ball.shape[:3]) + (1 if grey_ball(ball) else 3,), np.uint16)
+    ball_d_rows(ball, D, a_nodes, float(radius), float(lo_log), float(dlog), 1.0 / scale, out, scratch())
+    return BallD(out, scale)
 
 
 def incident_channels(power, ball, diffusion=None, grey_albedo=None) -> int:
@@ -138,7 +159,8 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
         tau = stack_volumes([taus[j]])
         if rows:
             # a point light's slot is its own: written, not added (nothing to clear first)
-            bake_rows(model_id, one, tau, dgrid if dgrid is not None else NO_D, float(arec.radius),
+            dg = dgrid if dgrid is not None else NO_D
+            bake_rows(model_id, one, tau, dg.values, float(dg.scale), float(arec.radius),
                       geometry.world_to_index, geometry.index_to_world, nch, q, not (in_place and lrec.kind[j] == 0),
                       out, chunks)
             continue

@@ -73,7 +73,8 @@ LIGHT_SETS = {
 @pytest.mark.parametrize("lights", list(LIGHT_SETS))
 def test_rows_equal_the_node_rule(model, lights):
     # exp and log by polynomials (1e-13, 1e-15) and the last cell at fraction 1: equal to float32
-    # rounding of the baked value
+    # rounding of the baked value; ambient scattering's ball term reads D in 16 bits (half a step is
+    # 7.7e-6 of the table's largest D: stages.bake.BallD), the node rule the exact lookup
     calls = captured_bakes(coloured_grid(), LIGHT_SETS[lights], model)
     assert calls
     for args, kw, (nargs, nkw) in calls:
@@ -82,7 +83,8 @@ def test_rows_equal_the_node_rule(model, lights):
         rows, nch = stage_bake.bake_incident(*args, **kw, driver="rows")
         nodes, nch_n = stage_bake.bake_incident(*nargs, **nkw, driver="nodes")
         assert nch == nch_n and rows.shape == nodes.shape
-        assert np.abs(rows - nodes).max() <= 1e-6 * np.abs(nodes).max()
+        tol = 1e-5 if kw.get("dgrid") is not None else 1e-6
+        assert np.abs(rows - nodes).max() <= tol * np.abs(nodes).max()
         assert np.abs(nodes).max() > 0
 
 
@@ -94,7 +96,7 @@ def test_grey_albedo_bakes_one_channel_alike():
         rows, nch = stage_bake.bake_incident(*args, **kw, driver="rows")
         nodes, _ = stage_bake.bake_incident(*nargs, **nkw, driver="nodes")
         assert nch == 1
-        assert np.abs(rows - nodes).max() <= 1e-6 * np.abs(nodes).max()
+        assert np.abs(rows - nodes).max() <= 1e-5 * np.abs(nodes).max()  # D in 16 bits, as above
 
 
 def test_cases_outside_the_rows_take_the_node_rule():
@@ -134,7 +136,10 @@ def test_ball_d_equals_the_table_lookup_and_replaces_the_ball():
         b = ball[tuple(idx)].astype(np.float64)
         for c in range(3):
             expect = d_lookup(D, a_nodes, lo_log, dlog, 1.0, radius * b[0], b[1 + c])
-            assert abs(dgrid[tuple(idx) + (c,)] - expect) <= 1e-6 * max(abs(expect), 1e-12)
+            # 16 bits: within half a step of the table's largest D over 65535 (stages.bake.BallD)
+            got = float(dgrid.values[tuple(idx) + (c,)]) * dgrid.scale
+            assert abs(got - expect) <= 0.5 * dgrid.scale * (1 + 1e-6) + 1e-6 * abs(expect)
+    assert dgrid.values.dtype == np.uint16 and dgrid.scale == pytest.approx(float(np.max(D)) / 65535, rel=1e-12)
 
 
 def test_log_pos_against_math_log():
