@@ -46,7 +46,7 @@ import numba
 import numpy as np
 
 from ._jit import driver, prange, scalar
-from .lightvol import TIE, dominant_axis, lateral_range, node_tau, sweep_start, wlen
+from .lightvol import TIE, dominant_axis, lateral_range, node_tau, put_node, sweep_start, wlen
 
 
 @scalar(force_inline=True)
@@ -90,12 +90,7 @@ def write_node(sig, is_point, l0, l1, l2, axis, k, ib, ic, tau, ln, out, cur):
             dom = dominant_axis(d1, d2, d0)
         if dom != axis:
             return
-    if axis == 0:
-        out[k, ib, ic] = tau
-    elif axis == 1:
-        out[ib, k, ic] = tau
-    else:
-        out[ib, ic, k] = tau
+    put_node(out, axis, k, ib, ic, tau)
 
 
 @scalar(force_inline=True)

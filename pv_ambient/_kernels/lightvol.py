@@ -128,6 +128,18 @@ def _node(a, k, b, c, ib, ic):
 
 
 @scalar(force_inline=True)
+def put_node(out, a, k, ib, ic, value):
+    """``out`` (the grid's order) at lateral node (ib, ic) of layer k of a sweep along axis a
+    (:func:`_node`'s position) set to ``value``."""
+    if a == 0:
+        out[k, ib, ic] = value
+    elif a == 1:
+        out[ib, k, ic] = value
+    else:
+        out[ib, ic, k] = value
+
+
+@scalar(force_inline=True)
 def node_tau(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic):
     """Optical depth ``τ`` and in-box path length ``ℓ`` toward the light of node (ib, ic) of layer
     ``k`` of a sweep along axis ``a`` (:func:`sweep_tau`); ``prev`` is the layer ``J`` layers back
@@ -202,12 +214,7 @@ def sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur):
     if is_point:
         write = dominant_axis(abs(lx - x), abs(ly - y), abs(lz - z)) == a
     if write:
-        if a == 0:
-            out[k, ib, ic] = tau
-        elif a == 1:
-            out[ib, k, ic] = tau
-        else:
-            out[ib, ic, k] = tau
+        put_node(out, a, k, ib, ic, tau)
 
 
 @scalar
