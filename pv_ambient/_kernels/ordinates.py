@@ -279,6 +279,24 @@ def sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, sp_c, sp_p, q_c, q_p, 
                     a3[ac + j] += v * oz
 
 
+@driver
+def order_source(sig_s, phi_k, q):
+    """``q = σs·φ_k`` elementwise (flat arrays of one size): the next order's source, in parallel
+    where NumPy would run on one core (docs/performance.rst, "Transport sweeps")."""
+    for i in prange(q.shape[0]):
+        q[i] = sig_s[i] * phi_k[i]
+
+
+@driver
+def add_order(phi, F, phi_k, F_k):
+    """``φ += φ_k``, ``F += F_k`` elementwise (flat arrays; ``F_k`` float32 into float64 ``F``): an
+    order added into the sums, in parallel."""
+    for i in prange(phi.shape[0]):
+        phi[i] += phi_k[i]
+    for i in prange(F.shape[0]):
+        F[i] += F_k[i]
+
+
 def sweep_buffers(G, C, nb, nc, kind):
     """The plane buffers of :func:`sweep_group` for ``G`` directions, ``C`` channels and planes of
     ``nb`` × ``nc`` nodes (module docstring), in its argument order, and ``P``."""

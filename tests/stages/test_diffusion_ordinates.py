@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pv_ambient._kernels.phase import HENYEY_GREENSTEIN
+from pv_ambient._kernels.phase import HENYEY_GREENSTEIN, ISOTROPIC
 from pv_ambient.stages import diffusion as dm
 from pv_ambient.stages.diffusion.ordinates import fibonacci_directions, sweep_once
 
@@ -335,3 +335,45 @@ def test_scattering_orders_report_each_order_and_keep_their_values(capsys):
     assert "transport sweeps" in err and "3/3" in err
     for x, y in zip(quiet, shown):
         assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("per_channel", [True, False])
+def test_orders_in_reused_arrays_equal_fresh_sweeps(per_channel):
+    """``scattering_orders`` sweeps every order into the same two arrays (``sweep_once``'s ``out``)
+    and forms sources and sums on every core where the arrays line up (per-channel albedo); a grey
+    albedo broadcasts and keeps NumPy's arithmetic. Either way its sums equal those of
+    ``sweep_once`` called order by order into fresh arrays with NumPy's arithmetic, bit for bit."""
+    from pv_ambient.stages.diffusion.ordinates import scattering_orders
+
+    rng = np.random.default_rng(3)
+    n, sp, K = 9, (0.1,) * 3, 3
+    sig = rng.uniform(0.5, 3.0, (n, n, n))
+    q0 = rng.uniform(0.0, 1.0, (n, n, n, 3))
+    alb = rng.uniform(0.2, 0.9, (n, n, n, 3)) if per_channel else np.full((n, n, n), 0.6)
+    phi, F, phi_k, F_k = scattering_orders(sig, alb, [(q0, None)], ISOTROPIC, 0.0, sp, K, directions=16)
+    p, f = sweep_once(sig, q0, None, ISOTROPIC, 0.0, sp, directions=16)
+    ref_phi, ref_F = p.copy(), f.astype(np.float64)
+    sig_s = (alb if per_channel else alb[..., None]) * sig[..., None]
+    for _ in range(1, K):
+        p, f = sweep_once(sig, sig_s * p, None, ISOTROPIC, 0.0, sp, directions=16)
+        ref_phi += p
+        ref_F += f
+    assert np.array_equal(phi_k, p) and np.array_equal(F_k, f)
+    assert np.array_equal(phi, ref_phi) and np.array_equal(F, ref_F.astype(np.float32))
+
+
+def test_sweep_once_fills_out_in_place():
+    """``sweep_once(..., out=(phi, F))`` returns those arrays, zeroed and filled (whatever they held):
+    the same values as a sweep into new arrays; arrays of another shape are left alone."""
+    rng = np.random.default_rng(4)
+    n = 7
+    sig = rng.uniform(0.5, 3.0, (n, n, n))
+    q = rng.uniform(0.0, 1.0, (n, n, n, 2))
+    phi0, F0 = sweep_once(sig, q, None, ISOTROPIC, 0.0, (0.1,) * 3, directions=16)
+    out = (np.full(phi0.shape, 7.0), np.full(F0.shape, 7.0, np.float32))
+    phi, F = sweep_once(sig, q, None, ISOTROPIC, 0.0, (0.1,) * 3, directions=16, out=out)
+    assert phi is out[0] and F is out[1]
+    assert np.array_equal(phi, phi0) and np.array_equal(F, F0)
+    wrong = (np.full((n, n, n, 3), 7.0), np.full((n, n, n, 3, 3), 7.0, np.float32))
+    phi, F = sweep_once(sig, q, None, ISOTROPIC, 0.0, (0.1,) * 3, directions=16, out=wrong)
+    assert np.array_equal(phi, phi0) and np.all(wrong[0] == 7.0)

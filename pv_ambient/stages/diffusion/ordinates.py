@@ -60,7 +60,7 @@ def fibonacci_directions(m):
 
 
 def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association="point", direction=None,
-               directions=DEFAULT_DIRECTIONS[0]):
+               directions=DEFAULT_DIRECTIONS[0], out=None):
     """Fluence and flux of the light scattered once by the source ``q0 (m p(ω·û) + (1 − m)/4π)``
     (W/m³/sr) before it interacts again, ``m û = omega`` (this module's docstring).
 
@@ -84,6 +84,11 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
         Columns: the world directions of the index axes (identity when None).
     directions : int
         Number of discrete directions.
+    out : (phi, F), optional
+        Arrays of the returned shapes and dtypes to fill in place (zeroed here) rather than new
+        ones: :func:`scattering_orders` sweeps every order into the same two, as the first writes
+        to fresh memory cost a page fault per 4 KiB, a sizeable part of an order at 256³
+        (docs/performance.rst, "Transport sweeps"). Not used where the channels share one sweep.
 
     Returns
     -------
@@ -124,8 +129,8 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     dom = np.argmax(score, axis=1)
     half = 0.0 if association == "point" else 0.5
     Cs = qs.shape[3]
-    phi = np.zeros(shape + (Cs,))
-    F = np.zeros(shape + (Cs, 3), np.float32)
+    phi = _zeroed(out, 0, shape + (Cs,), np.float64, single)
+    F = _zeroed(out, 1, shape + (Cs, 3), np.float32, single)
     for a in range(3):
         for sign in (1, -1):
             sel = (dom == a) & (score[:, a] > 0) & (np.sign(u[:, a]) == sign)
@@ -141,6 +146,18 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     if single:
         phi, F = phi[..., 0], F[..., 0, :]
     return phi, F
+
+
+def _zeroed(out, i, shape, dtype, single):
+    """``out[i]`` zero-filled where it is an array of ``shape`` and ``dtype`` (as :func:`sweep_once`
+    returns it: without the channel axis where ``single``), else a new zero array."""
+    a = None if out is None else out[i]
+    if single and a is not None:
+        a = a[..., None, :] if i == 1 else a[..., None]
+    if a is None or a.shape != shape or a.dtype != dtype or not a.flags.c_contiguous:
+        return np.zeros(shape, dtype)
+    a.fill(0)
+    return a
 
 
 def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, orders, *,
@@ -169,6 +186,8 @@ def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, or
 
 def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, done, kw):
     """:func:`scattering_orders`' work; ``done()`` (or None) is called after each order."""
+    from ..._kernels.ordinates import add_order, order_source
+
     phi_k = F_k = None
     for q0, omega in sources:
         p, f = sweep_once(sig, q0, omega, phase_kind, phase_g, spacing, directions=m1, **kw)
@@ -183,6 +202,12 @@ def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, 
     sig_s = alb * (sig[..., None] if alb.ndim == 4 else sig)
     phi, F = phi_k.copy(), F_k.astype(np.float64)
     iso = int(phase_kind) == ISOTROPIC
+    # every order's source and result go into the same arrays: the last order's, once its source
+    # is formed (sweep_once's ``out``)
+    q = np.empty(np.broadcast_shapes(sig_s.shape, phi_k.shape)) if orders > 1 else None
+    # the elementwise steps on every core where the arrays line up (order_source, add_order)
+    flat = (q is not None and sig_s.shape == phi_k.shape == q.shape and sig_s.dtype == np.float64
+            and sig_s.flags.c_contiguous and phi_k.flags.c_contiguous)
     for _ in range(1, orders):
         om = None  # an isotropic phase function needs no direction field (sweep_once)
         if not iso:
@@ -192,9 +217,16 @@ def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, 
             # is (sub)normal-small
             ok = tot > 1e-280
             om = np.where(ok[..., None], ftot / np.where(ok, tot, 1.0)[..., None], 0.0)
-        phi_k, F_k = sweep_once(sig, sig_s * phi_k, om, phase_kind, phase_g, spacing, directions=m2, **kw)
-        phi += phi_k
-        F += F_k
+        if flat:
+            order_source(sig_s.reshape(-1), phi_k.reshape(-1), q.reshape(-1))
+        else:
+            np.multiply(sig_s, phi_k, out=q)
+        phi_k, F_k = sweep_once(sig, q, om, phase_kind, phase_g, spacing, directions=m2, out=(phi_k, F_k), **kw)
+        if flat and phi_k.shape == phi.shape and F_k.shape == F.shape:
+            add_order(phi.reshape(-1), F.reshape(-1), phi_k.reshape(-1), F_k.reshape(-1))
+        else:
+            phi += phi_k
+            F += F_k
         if done is not None:
             done()
     return phi, F.astype(np.float32), phi_k, F_k
