@@ -82,3 +82,67 @@ def jacobi(wx, wy, wz, c, r, z, part):
                 z[i, j, k] = v
                 s += v * r[i, j, k]
         part[i] = s
+
+
+@driver
+def anderson_gram(x0, g0, x1, g1, x2, g2, m, part):
+    """The Gram matrix and right side of Anderson mixing over ``m`` (1 or 2) residual differences,
+    per first-axis slab: ``part[i] = (A00, A01, A11, b0, b1)`` summed over slab i, with residuals
+    ``f_j = g_j − x_j``, differences ``dF_0 = f1 − f0``, ``dF_1 = f2 − f1`` (``m`` = 2), ``A = dFᵀdF``
+    and ``b = dFᵀ f_last``: one pass, no temporaries (``pv_ambient.stages.diffusion.solve``'s
+    flux-limiter passes)."""
+    nx, ny, nz = x0.shape
+    two = m == 2
+    for i in prange(nx):
+        a00 = 0.0
+        a01 = 0.0
+        a11 = 0.0
+        b0 = 0.0
+        b1 = 0.0
+        for j in range(ny):
+            for k in range(nz):
+                f0 = g0[i, j, k] - x0[i, j, k]
+                f1 = g1[i, j, k] - x1[i, j, k]
+                d0 = f1 - f0
+                f2 = g2[i, j, k] - x2[i, j, k] if two else f1
+                d1 = f2 - f1 if two else 0.0
+                a00 += d0 * d0
+                a01 += d0 * d1
+                a11 += d1 * d1
+                b0 += d0 * f2
+                b1 += d1 * f2
+        part[i, 0] = a00
+        part[i, 1] = a01
+        part[i, 2] = a11
+        part[i, 3] = b0
+        part[i, 4] = b1
+
+
+@driver
+def anderson_mix(g0, g1, g2, c0, c1, out):
+    """``out = max(g2 − c0 (g1 − g0) − c1 (g2 − g1), 0)``: Anderson mixing's combination of the
+    last images, clamped at 0 (``g2`` is ``g1`` and ``c1`` 0 over one difference)."""
+    nx, ny, nz = out.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                v = g2[i, j, k] - c0 * (g1[i, j, k] - g0[i, j, k]) - c1 * (g2[i, j, k] - g1[i, j, k])
+                out[i, j, k] = v if v > 0.0 else 0.0
+
+
+@driver
+def weighted_change(w, phi, x, part):
+    """``part[i] = (Σ (w (φ − x))², Σ (w φ)²)`` over first-axis slab i: the flux limiter's
+    relative change between two passes, weighted by σs, in one pass."""
+    nx, ny, nz = phi.shape
+    for i in prange(nx):
+        s = 0.0
+        t = 0.0
+        for j in range(ny):
+            for k in range(nz):
+                d = w[i, j, k] * (phi[i, j, k] - x[i, j, k])
+                v = w[i, j, k] * phi[i, j, k]
+                s += d * d
+                t += v * v
+        part[i, 0] = s
+        part[i, 1] = t

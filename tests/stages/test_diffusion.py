@@ -742,3 +742,28 @@ def test_solve_for_light_on_a_renderer():
     both = _solve_for_light(r, [light, other], 0.3, tol=1e-9)
     parts = [_solve_for_light(r, lt, 0.3, tol=1e-9) for lt in (light, other)]
     assert np.allclose(both.phi, parts[0].phi + parts[1].phi, rtol=1e-5, atol=1e-7 * both.phi.max())
+
+
+@pytest.mark.parametrize("m", [1, 2])
+def test_anderson_kernels_equal_the_least_squares_mixing(m):
+    """The flux limiter's Anderson step over one or two differences (the fused kernels: one pass for
+    the Gram matrix, one for the combination) equals NumPy's least-squares form of it (the general
+    path, taken here by Fortran-ordered arrays) to rounding: ≤ 1e-13 of the largest value, and
+    clamped at 0 where the combination goes negative."""
+    rng = np.random.default_rng(7)
+    shape = (11, 9, 7)
+    xs = [rng.random(shape) for _ in range(m + 1)]
+    gs = [rng.random(shape) - 0.3 for _ in range(m + 1)]
+    fused = dsolve._anderson(xs, gs)
+    general = dsolve._anderson([np.asfortranarray(x) for x in xs], gs)
+    assert np.max(np.abs(fused - general)) <= 1e-13 * np.max(np.abs(general))
+    assert fused.min() == 0.0 and np.count_nonzero(fused == 0.0) == np.count_nonzero(general == 0.0)
+
+
+def test_weighted_change_kernel_equals_numpy():
+    """The limiter's stopping measure ‖w(φ − x)‖/‖wφ‖ in one pass equals NumPy's norms to 1e-14."""
+    rng = np.random.default_rng(8)
+    w, phi, x = (rng.random((9, 8, 7)) for _ in range(3))
+    want = np.linalg.norm(w * (phi - x)) / np.linalg.norm(w * phi)
+    assert dsolve._weighted_change(w, phi, x) == pytest.approx(want, rel=1e-14)
+    assert dsolve._weighted_change(np.asfortranarray(w), phi, x) == pytest.approx(want, rel=1e-14)
