@@ -70,7 +70,8 @@ def _diffusion(renderer, req, options, inputs):
         inputs.diffusion, info = renderer.stages.diffusion(
             inputs.lights, inputs.grid, req.phase, flux_limited=options.get("flux_limited", False),
             progress_bar=req.progress_bar is True, backend=req.backend, sweep_orders=options.get("sweep_orders", 0),
-            tol=QUALITY_PRESETS[req.quality]["diffusion_tol"], coarse=QUALITY_PRESETS[req.quality]["diffusion_coarse"])
+            tol=QUALITY_PRESETS[req.quality]["diffusion_tol"], coarse=QUALITY_PRESETS[req.quality]["diffusion_coarse"],
+            coarse_remainder=QUALITY_PRESETS[req.quality]["sweep_remainder_coarse"])
         if info is not None:
             bar.set_postfix_str(f"{info['iterations']} iterations, residual {info['residual']:.2g}")
         inputs.diffusion_info = info

@@ -70,14 +70,18 @@ ALL_MODELS = tuple(m.name for m in MODEL_TABLE)
 #: stops (``diffusion_tol``; docs/diffusion.rst, "Solver tolerance": at 1e-3 an image moves by
 #: about 2e-4 of its mean, far below the model's own error), and whether plain diffusion may be
 #: solved on a grid twice as coarse where the medium is optically thin per coarse cell
-#: (``diffusion_coarse``; docs/diffusion.rst, "Solve resolution"). Cost and error per preset: docs/trade.rst.
+#: (``diffusion_coarse``; docs/diffusion.rst, "Solve resolution"), and whether, with the transport
+#: sweeps, the light scattered more often than they carry may be diffused on that coarser grid (the
+#: swept orders stay at the data resolution; ``sweep_remainder_coarse``, the same section). Cost
+#: and error per preset: docs/trade.rst.
 QUALITY_PRESETS = {
     "preview": {"step": 1.0, "light_resolution": 1.0, "table_quality": "preview", "samples_per_pixel": 16,
-                "bake_lights": True, "diffusion_tol": 1e-2, "diffusion_coarse": True},
+                "bake_lights": True, "diffusion_tol": 1e-2, "diffusion_coarse": True, "sweep_remainder_coarse": True},
     "balanced": {"step": 0.5, "light_resolution": None, "table_quality": "balanced", "samples_per_pixel": 64,
-                 "bake_lights": True, "diffusion_tol": 1e-3, "diffusion_coarse": True},
+                 "bake_lights": True, "diffusion_tol": 1e-3, "diffusion_coarse": True, "sweep_remainder_coarse": True},
     "accurate": {"step": 0.25, "light_resolution": 2.0, "table_quality": "balanced", "samples_per_pixel": 256,
-                 "bake_lights": False, "diffusion_tol": 1e-4, "diffusion_coarse": False},
+                 "bake_lights": False, "diffusion_tol": 1e-4, "diffusion_coarse": False,
+                 "sweep_remainder_coarse": True},
 }
 QUALITIES = tuple(QUALITY_PRESETS)
 DEFAULT_QUALITY = "balanced"

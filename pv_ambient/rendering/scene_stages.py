@@ -381,7 +381,7 @@ class SceneStages:
             del self.cache[key]
 
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",
-                  sweep_orders=0, tol=None, coarse=False):
+                  sweep_orders=0, tol=None, coarse=False, coarse_remainder=False):
         """The multiply-scattered light of ``lights`` packed for the camera pass, and its solve's
         information: ``(field, info)`` — the field as
         :func:`pv_ambient.stages.diffusion.packing.pack_for_march` packs it, summed over the lights,
@@ -396,7 +396,9 @@ class SceneStages:
         at which the solve stops (the quality preset's ``diffusion_tol``; None: the solver's default);
         ``coarse``: plain diffusion of an isotropic phase function may be solved on a grid twice as
         coarse, where the medium is optically thin enough (:meth:`coarse_solve`; docs/diffusion.rst,
-        "Solve resolution")."""
+        "Solve resolution"); ``coarse_remainder``: with the sweeps and an isotropic phase function, the
+        light scattered more often than they carry may be diffused on that coarser grid
+        (:meth:`coarse_remainder`)."""
         from ..stages.diffusion.packing import add_packed
 
         g = float(phase.mean_cosine)
@@ -406,6 +408,8 @@ class SceneStages:
         # isotropic scattering only: the radiance's flux term (g ≠ 0) has voxel-scale structure
         # that a coarse grid loses (docs/diffusion.rst, "Solve resolution")
         coarse = bool(coarse) and g == 0.0 and not sweep and not flux_limited and self.coarse_solve() is not None
+        if sweep and coarse_remainder and g == 0.0 and self.coarse_remainder() is not None:
+            coarse = "remainder"
         keys = tuple(("diffusion", lt, grid.key(), g, bool(flux_limited))
                      + ((sweep, phase.canonical()) if sweep else ()) + (tol, coarse) for lt in lights)
         if len(keys) > 1 and ("diffusion_sum", keys) in self.cache:
@@ -458,6 +462,26 @@ class SceneStages:
 
         return self.cache.get(("diffusion_coarse",), build)
 
+    def coarse_remainder(self):
+        """``(Coarsening, coarse DiffusionMedium)`` on which the sweeps' remainder may be diffused: the
+        sweeps' medium (:func:`pv_ambient.stages.diffusion.hat_medium`) restricted to the grid twice
+        as coarse, or None where it is too thick per coarse cell or the grid too small (the rule of
+        :meth:`coarse_solve`; cached per scene)."""
+        from ..stages.diffusion.coarse import Coarsening, thin_enough
+
+        def build():
+            co = Coarsening.of(self.geometry)
+            if not co.coarser or not thin_enough(self._hat_medium().sigma_t, self.geometry.spacing):
+                return None
+            return co, co.medium(self._hat_medium())
+
+        return self.cache.get(("diffusion_coarse_hat",), build)
+
+    def _hat_medium(self):
+        from ..stages.diffusion import hat_medium
+
+        return self.cache.get(("diffusion_medium_hat",), lambda: hat_medium(self.optics, self.geometry))
+
     def _diffusion_medium(self):
         from ..stages.diffusion import DiffusionMedium
 
@@ -465,17 +489,17 @@ class SceneStages:
             self.optics.sigma_grid(), self.optics.albedo_grid()))
 
     def _solve(self, light, grid, phase, sweep, flux_limited, progress_bar, backend, x0=None, tol=None, coarse=False):
-        from ..stages.diffusion import hat_medium, solve_for_light
+        from ..stages.diffusion import solve_for_light
         from ..stages.diffusion.packing import pack_for_march
 
         g = float(phase.mean_cosine)
-        if sweep:  # the classified field's node means (docs/diffusion.rst §5)
-            medium = self.cache.get(("diffusion_medium_hat",), lambda: hat_medium(self.optics, self.geometry))
-        else:
-            medium = self._diffusion_medium()
+        # the sweeps read the classified field's node means (docs/diffusion.rst §5)
+        medium = self._hat_medium() if sweep else self._diffusion_medium()
         lgrid = self.light_grid(grid.factor)
         extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
-        if coarse:
+        if coarse == "remainder":
+            extra["coarse_remainder"] = self.coarse_remainder()
+        elif coarse:
             extra["coarse"] = self.coarse_solve()
         if tol is not None:
             extra["tol"] = tol

@@ -183,3 +183,36 @@ def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
     monkeypatch.setattr(dcoarse, "COARSE_SIGMA_H", 0.01)  # as if the medium were thick per coarse cell
     thick = renderer(grid, lights)
     assert thick.stages.coarse_solve() is None
+
+
+def test_sweeps_remainder_on_the_coarse_grid(monkeypatch):
+    """Why: with transport sweeps, the light scattered more often than they carry is diffused on the
+    grid twice as coarse (every preset; the swept orders stay at the data resolution) where the
+    grid qualifies as for the coarse plain solve (docs/diffusion.rst, "Solve resolution"; the size
+    gate lowered here so that a 65³ grid qualifies). The picture stays within 0.01 (4×4-block
+    error) of the full-resolution remainder with a point light inside the medium; forward
+    scattering keeps the full resolution."""
+    from pv_ambient import metrics
+    from pv_ambient.rendering.presets import QUALITY_PRESETS
+    from pv_ambient.inputs.phase import HenyeyGreenstein
+    from pv_ambient.stages.diffusion import coarse as dcoarse
+
+    monkeypatch.setattr(dcoarse, "COARSE_MIN_NODES", 1)
+    grid = physical_grid(n=65, sigma=3.0)
+    lights = [PointLight((0.1, -0.05, 0.0), intensity=(3.0, 2.5, 2.0))]
+    opts = dict(camera=CAM, window_size=(32, 32), model="diffusion", quality="balanced", step=0.03,
+                sweep_orders=2, flux_limited=True)
+    r = renderer(grid, lights)
+    coarse = r.render(**opts).radiance.astype(np.float64)
+    assert r.stages.coarse_remainder()[0].shape == (33, 33, 33)
+    assert all(k[-1] == "remainder" for k in r.cache.keys("diffusion"))
+    monkeypatch.setitem(QUALITY_PRESETS["balanced"], "sweep_remainder_coarse", False)
+    r2 = renderer(grid, lights)
+    full = r2.render(**opts).radiance.astype(np.float64)
+    assert all(k[-1] is False for k in r2.cache.keys("diffusion"))
+    assert coarse.max() > 0
+    assert metrics.block_relative_rmse(coarse, full) <= 0.01
+    asked = []  # forward scattering: the stage decides for the full resolution (no solve run here)
+    monkeypatch.setattr(r.stages, "_solve", lambda *a: asked.append(a[-1]) or (np.zeros((1, 1, 1, 1), np.float32), None))
+    r.stages.diffusion(lights, r.stages.light_grid(), HenyeyGreenstein(0.5), sweep_orders=2, coarse_remainder=True)
+    assert asked == [False]

@@ -11,7 +11,7 @@ import pytest
 from scipy.special import expn
 
 from pv_ambient.stages import diffusion as dm
-from pv_ambient.stages.diffusion import solve as dsolve, sources as dm_sources, system as dsystem
+from pv_ambient.stages.diffusion import limiter as dlimiter, solve as dsolve, sources as dm_sources, system as dsystem
 from pv_ambient.inputs.grid import make_geometry
 from pv_ambient.inputs.lights import DirectionalLight, PointLight
 
@@ -754,8 +754,8 @@ def test_anderson_kernels_equal_the_least_squares_mixing(m):
     shape = (11, 9, 7)
     xs = [rng.random(shape) for _ in range(m + 1)]
     gs = [rng.random(shape) - 0.3 for _ in range(m + 1)]
-    fused = dsolve._anderson(xs, gs)
-    general = dsolve._anderson([np.asfortranarray(x) for x in xs], gs)
+    fused = dlimiter.anderson(xs, gs)
+    general = dlimiter.anderson([np.asfortranarray(x) for x in xs], gs)
     assert np.max(np.abs(fused - general)) <= 1e-13 * np.max(np.abs(general))
     assert fused.min() == 0.0 and np.count_nonzero(fused == 0.0) == np.count_nonzero(general == 0.0)
 
@@ -765,5 +765,5 @@ def test_weighted_change_kernel_equals_numpy():
     rng = np.random.default_rng(8)
     w, phi, x = (rng.random((9, 8, 7)) for _ in range(3))
     want = np.linalg.norm(w * (phi - x)) / np.linalg.norm(w * phi)
-    assert dsolve._weighted_change(w, phi, x) == pytest.approx(want, rel=1e-14)
-    assert dsolve._weighted_change(np.asfortranarray(w), phi, x) == pytest.approx(want, rel=1e-14)
+    assert dlimiter.weighted_change(w, phi, x) == pytest.approx(want, rel=1e-14)
+    assert dlimiter.weighted_change(np.asfortranarray(w), phi, x) == pytest.approx(want, rel=1e-14)

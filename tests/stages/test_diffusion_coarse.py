@@ -267,3 +267,37 @@ def test_restricted_sources_equal_the_restricted_product(albedo_channels, power)
     want = sum(co.restrict(sig[..., None] * a * e[..., None] * p) for e, p in lights)
     assert got.shape == co.shape + (len(power),)
     assert np.allclose(got, want, rtol=1e-12, atol=1e-14)
+
+
+def test_sweeps_remainder_on_the_coarse_grid():
+    """:func:`solve_for_light` with transport sweeps and ``coarse_remainder``: the light scattered
+    more than K = 2 times diffused on the coarse grid, a point light inside a 65³ cloud thin enough
+    per coarse cell (no box around the light: order K's fluence is smooth there), against the whole
+    solve at the data resolution: σs-weighted φ within 1 % (measured 0.60 %; 0.77 % at K = 1,
+    0.37 % at K = 4), φ float64 and F float32 on the data grid. A phase function with g ≠ 0 is
+    refused (its first-moment source has voxel-scale structure)."""
+    from types import SimpleNamespace
+    from pv_ambient.stages.diffusion import solve_for_light
+
+    n = 65
+    sig, alb, h = _cloud(n, albedo_dtype=np.float32)
+    assert np.percentile(sig, 99.9) * 2 * h <= dc.COARSE_SIGMA_H  # thin enough per coarse cell
+    geo = make_geometry((n, n, n), np.diag([h, h, h, 1.0]))
+    med = DiffusionMedium.from_arrays(sig, alb)
+    grid = SimpleNamespace(lo=np.asarray(geo.box_lo, np.float64), inv_step=np.ones(3))
+    idx = np.indices(sig.shape).transpose(1, 2, 3, 0)
+    centre = np.array(sig.shape, np.float64) / 2 - 0.3
+    lt = PointLight(tuple(geo.index_to_world[:3, :3] @ centre + geo.index_to_world[:3, 3]), 1.0)
+    tau = 0.5 * np.linalg.norm(idx - centre, axis=-1) * h
+    co = dc.Coarsening.of(geo)
+    kw = dict(medium=med, geometry=geo, tau=tau, light_grid=grid, tol=1e-6, sweep_orders=2,
+              sweep_directions=16, flux_limited=True)
+    full = solve_for_light(lt, 0.0, **kw)
+    crs = solve_for_light(lt, 0.0, coarse_remainder=(co, co.medium(med)), **kw)
+    ss = sig[..., None] * alb
+    err = np.sum(ss * np.abs(crs.phi - full.phi)) / np.sum(ss * full.phi)
+    assert err < 1e-2, err
+    assert crs.phi.shape == full.phi.shape and crs.phi.dtype == np.float64
+    assert crs.flux.shape == full.flux.shape and crs.flux.dtype == np.float32
+    with pytest.raises(ValueError, match="isotropic"):
+        solve_for_light(lt, 0.5, coarse_remainder=(co, co.medium(med)), **kw)

@@ -21,6 +21,7 @@ The package
 - :mod:`.system`: the node-centred finite-volume system (Marshak vacuum faces), the flux at the
   nodes and the power balance;
 - :mod:`.multigrid`: the aggregation-multigrid hierarchy, V-cycle and preconditioned CG;
+- :mod:`.limiter`: the flux limiter's coefficient, Anderson mixing and stopping measure;
 - :mod:`.solve`: :func:`solve_diffusion` (vacuum floor, flux limiter with Anderson mixing,
   channel reuse), :func:`mean_chord` and the per-light entry point :func:`solve_for_light`,
   which takes arrays and small records — the caller computes the light's optical depth;

@@ -31,7 +31,7 @@ import numpy as np
 from .medium import DiffusionMedium
 
 __all__ = ["COARSE_MIN_NODES", "COARSE_SIGMA_H", "PATCH_RADIUS", "Coarsening", "coarse_shape", "local_flux",
-           "solve_coarse", "thin_enough"]
+           "solve_coarse", "solve_remainder", "thin_enough"]
 
 #: The solve runs on the coarser grid only where the medium is optically thin per coarse cell:
 #: the 99.9th percentile of σt·H (H the coarse spacing) at most this.
@@ -372,4 +372,19 @@ def solve_coarse(solve, medium, coarse_medium, co, g, spacing, sources, Q1=None,
     sol.phi = phi
     sol.flux = flux
     sol.time = time.perf_counter() - t_start
+    return sol
+
+
+def solve_remainder(solve, coarse, q0, shape, x0=None):
+    """The light the transport sweeps leave to diffusion (source ``q0``: σs φ_K on the data grid,
+    per channel) solved on ``coarse`` = (Coarsening, coarse medium) by ``solve(medium, spacing, Q0,
+    x0)``: ``q0`` restricted, a warm start ``x0`` (data grid) too, φ (float64) and F (float32)
+    interpolated back at the data samples of ``shape``. No box around the lights: order K's fluence,
+    scattered K times already, is smooth there (docs/diffusion.rst, "Solve resolution")."""
+    co, medium_c = coarse
+    Hsp = np.linalg.norm(np.asarray(co.geometry.index_to_world, np.float64)[:3, :3], axis=0)
+    sol = solve(medium_c, Hsp, co.restrict(q0), None if x0 is None else co.restrict(x0))
+    sol.phi = co.prolong(sol.phi)
+    fl = sol.flux
+    sol.flux = co.prolong(fl.reshape(fl.shape[:3] + (-1,)), np.float32).reshape(tuple(shape) + fl.shape[3:])
     return sol

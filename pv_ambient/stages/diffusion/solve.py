@@ -70,7 +70,8 @@ from .ordinates import DEFAULT_DIRECTIONS, scattering_orders
 from .multigrid import SERIAL_NODES, Level, hierarchy, one_thread_if, pcg
 from .sources import direct_irradiance, hat_source, source_in_medium, unit_irradiance
 from .solution import DiffusionSolution
-from .system import NO_Q1, FVGrid, assemble, check_boundary, flux_and_power, reflects
+from .limiter import anderson, flux_limited_D, weighted_change
+from .system import FVGrid, assemble, check_boundary, flux_and_power, reflects
 
 __all__ = ["flux_limited_D", "mean_chord", "solve_diffusion", "solve_for_light", "solve_in_medium"]
 
@@ -88,22 +89,6 @@ WARM_CHANNELS = True
 INNER_REL = 0.1
 #: Smallest diffusion coefficient the flux limiter may produce, in units of the smallest spacing.
 D_MIN_REL = 1e-6
-
-
-def flux_limited_D(grid, phi, sig_p, Q1, d_max, d_min):
-    """Levermore–Pomraning D = λ(R)/σt' at the nodes, R = |∇φ − 3Q1|/(σt' φ), clipped to
-    [d_min, d_max] (d_max: the vacuum floor's D); ∇φ as ``numpy.gradient`` (central differences,
-    one-sided on the box faces). The kernel: ``_kernels.diffusion_system.limiter_coefficients``."""
-    from ..._kernels.diffusion_system import limiter_coefficients
-
-    out = np.empty(grid.shape)
-    # a channel's Q1 is a strided view (docs/diffusion.rst, "Precision and memory traffic"): read in
-    # place, not copied at every pass of the limiter
-    q1 = NO_Q1 if Q1 is None else (Q1 if Q1.dtype == np.float64 else Q1.astype(np.float64))
-    hx, hy, hz = (float(v) for v in grid.h)
-    limiter_coefficients(np.ascontiguousarray(phi, np.float64), np.ascontiguousarray(sig_p, np.float64), q1,
-                             Q1 is not None, hx, hy, hz, float(d_max), float(d_min), out)
-    return out
 
 
 def _solve_channel(grid, sig, a, D0, Q0, Q1, x0, tol, maxiter, preconditioner, flux_limited, max_outer,
@@ -141,71 +126,19 @@ def _solve_channel(grid, sig, a, D0, Q0, Q1, x0, tol, maxiter, preconditioner, f
             levels = hierarchy(w, c, grid.h) if preconditioner == "multigrid" else [Level(w, c)]
             phi, k, res = pcg(levels, b, x, loose, maxiter, preconditioner, bar)
             its += k
-            change = _weighted_change(weight, phi, x)
+            change = weighted_change(weight, phi, x)
             if change < outer_tol:
                 outer_ok = True
                 break
             xs.append(x)
             gs.append(phi)
             del xs[:-(ANDERSON_DEPTH + 1)], gs[:-(ANDERSON_DEPTH + 1)]
-            x = _anderson(xs, gs) if len(xs) > 1 else phi
+            x = anderson(xs, gs) if len(xs) > 1 else phi
     if loose > tol and res > tol:  # finish the last solve (same D) to the stated tolerance
         phi, k, res = pcg(levels, b, phi, tol, maxiter, preconditioner, bar)
         its += k
     worst = res
     return phi, D, its, worst, outer, outer_ok
-
-
-def _weighted_change(weight, phi, x):
-    """``‖w (φ − x)‖ / ‖w φ‖`` (floored at 1e-300 below): in one parallel pass where the three are
-    C-ordered float64 grids (``_kernels.diffusion_cg.weighted_change``), else by NumPy."""
-    if all(a.ndim == 3 and a.dtype == np.float64 and a.flags.c_contiguous for a in (weight, phi, x)):
-        from ..._kernels.diffusion_cg import weighted_change
-
-        part = np.zeros((phi.shape[0], 2))
-        weighted_change(weight, phi, x, part)
-        s, t = part.sum(axis=0)
-        return math.sqrt(s) / max(math.sqrt(t), 1e-300)
-    return float(np.linalg.norm(weight * (phi - x))) / max(float(np.linalg.norm(weight * phi)), 1e-300)
-
-
-def _anderson(xs, gs):
-    """Anderson mixing: the combination of the last images S(x_i) = gs[i] whose residuals
-    f_i = gs[i] − xs[i] combine to the least 2-norm; clamped at 0 (φ ≥ 0 for the limiter).
-    Over one or two differences (``ANDERSON_DEPTH`` ≤ 2) in two parallel passes with no
-    temporaries (``_kernels.diffusion_cg.anderson_gram``, ``anderson_mix``): the sums are per slab,
-    so the result does not depend on the thread count."""
-    m = len(xs) - 1
-    if 1 <= m <= 2 and all(a.ndim == 3 and a.dtype == np.float64 and a.flags.c_contiguous for a in xs + gs):
-        return _anderson_fused(xs, gs, m)
-    f = [g - x for x, g in zip(xs, gs)]
-    dF = np.stack([(f[i + 1] - f[i]).ravel() for i in range(len(f) - 1)], axis=1)
-    dG = np.stack([(gs[i + 1] - gs[i]).ravel() for i in range(len(gs) - 1)], axis=1)
-    A = dF.T @ dF
-    A += 1e-12 * np.trace(A) * np.eye(A.shape[0])
-    try:
-        gamma = np.linalg.solve(A, dF.T @ f[-1].ravel())
-    except np.linalg.LinAlgError:  # pragma: no cover - degenerate history: plain lagged step
-        return gs[-1]
-    return np.maximum((gs[-1].ravel() - dG @ gamma).reshape(gs[-1].shape), 0.0)
-
-
-def _anderson_fused(xs, gs, m):
-    """:func:`_anderson` over ``m`` = 1 or 2 differences of 3-D float64 arrays, by the kernels."""
-    from ..._kernels.diffusion_cg import anderson_gram, anderson_mix
-
-    part = np.zeros((xs[0].shape[0], 5))
-    anderson_gram(xs[0], gs[0], xs[1], gs[1], xs[-1], gs[-1], m, part)
-    a00, a01, a11, b0, b1 = part.sum(axis=0)
-    A = np.array([[a00, a01], [a01, a11]])[:m, :m]
-    A += 1e-12 * np.trace(A) * np.eye(m)
-    try:
-        gamma = np.linalg.solve(A, np.array([b0, b1])[:m])
-    except np.linalg.LinAlgError:  # pragma: no cover - degenerate history: plain lagged step
-        return gs[-1]
-    out = np.empty_like(gs[-1])
-    anderson_mix(gs[0], gs[1], gs[-1], float(gamma[0]), float(gamma[1]) if m == 2 else 0.0, out)
-    return out
 
 
 def mean_chord(shape, spacing, association="point"):
@@ -472,7 +405,7 @@ def _proportional(a, s0, s1, a_prev, s0_prev, s1_prev):
 
 
 def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders=0,
-                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, coarse=None, **options):
+                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, coarse=None, coarse_remainder=None, **options):
     """Direct irradiance → first-collision source → diffusion for a light (or several).
 
     A sequence of lights sums their sources into one solve (the problem is linear; per-light
@@ -514,6 +447,13 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
         restricted, the coarse medium (``Coarsening.medium``) takes the solve, φ and F come back
         interpolated at the data samples, and a box around each point light is solved again at
         the data resolution. ``x0`` stays on the data grid.
+    coarse_remainder : (Coarsening, DiffusionMedium), optional
+        With ``sweep_orders``: the light scattered more than K times diffused on this coarser grid
+        (``DiffusionMedium``: ``medium`` restricted, :meth:`.coarse.Coarsening.medium`), its source
+        restricted and φ and F interpolated back at the data samples; the swept orders stay on
+        the data grid. No box around the lights is needed: order K's fluence, scattered K times
+        already, is smooth there (docs/diffusion.rst, "Solve resolution"). An isotropic phase
+        function only (no first-moment source).
     **options
         Passed to :func:`solve_in_medium` (see :func:`solve_diffusion`); ``association`` and
         ``direction`` default to the geometry's.
@@ -560,15 +500,39 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
                                            association=opts["association"], direction=opts["direction"],
                                            directions=sweep_directions, progress_bar=opts.get("progress_bar", False))
-    # the light scattered more than K times: diffusion from order K's moments
+    # the light scattered more than K times: diffusion from order K's moments (no first-moment
+    # source where the phase function is isotropic: the same solve, without a zero array)
     alb = medium.albedo if medium.albedo.ndim == 4 else medium.albedo[..., None]
     sig_s = alb * medium.sigma_t[..., None]
     gm = float(check_mean_cosine(g, ()))
-    sol = solve_in_medium(medium, g, sp, sig_s * phi_k, gm * sig_s[..., None] * F_k, **opts)
+    q0 = sig_s * phi_k
+    del phi_k
+    if coarse_remainder is not None:
+        if gm != 0.0:
+            raise ValueError("coarse_remainder needs an isotropic phase function (g = 0)")
+        sol = _remainder_coarse(coarse_remainder, g, q0, medium, sp, opts)
+    else:
+        sol = solve_in_medium(medium, g, sp, q0, None if gm == 0.0 else gm * sig_s[..., None] * F_k, **opts)
     sol.phi = sol.phi + phi
     sol.flux = (sol.flux + F).astype(np.float32)
     sol.time = time.perf_counter() - t_start
     return sol
+
+
+def _remainder_coarse(coarse, g, q0, medium, spacing, opts):
+    """The sweeps' remainder on the coarse grid (:func:`.coarse.solve_remainder`) by
+    :func:`solve_in_medium` with ``opts``, the data grid's vacuum floor."""
+    from .coarse import solve_remainder
+
+    o = dict(opts)
+    floor = o.pop("sigma_floor", None) or SIGMA_FLOOR_REL / mean_chord(medium.sigma_t.shape, spacing,
+                                                                        o["association"])
+    x0 = o.pop("x0", None)
+
+    def solve(med, sp, source, start):
+        return solve_in_medium(med, g, sp, source, None, x0=start, sigma_floor=floor, **o)
+
+    return solve_remainder(solve, coarse, q0, tuple(medium.sigma_t.shape), x0)
 
 
 def _phase_kind(g):
