@@ -182,9 +182,30 @@ def run_end(px, py, pz, qx, qy, qz, a, b, c, t, t1, maj, block):
     ``p + t·q`` (clipped to ``t1``): the walk (:func:`walk_step`) from that block to the first empty
     block, the grid's edge or ``t1``. The packet driver marches to it without a block lookup — in
     the per-pixel march a lookup at a boundary between non-empty blocks changes nothing but the
-    next boundary (docs/performance.rst, "CPU camera pass")."""
-    walk = (a, b, c, t)
+    next boundary (docs/performance.rst, "CPU camera pass"). The walk keeps each axis's exit and
+    computes it again only for the axis it steps along — the values :func:`walk_step` computes
+    for every axis at every block, with one division a block instead of three: a ray's first
+    lookup walks the whole run, in a scene without empty blocks the whole ray."""
+    mx, my, mz = maj.shape
+    tx = axis_exit(px, qx, a, block, mx)
+    ty = axis_exit(py, qy, b, block, my)
+    tz = axis_exit(pz, qz, c, block, mz)
+    sa = 1 if qx > 0.0 else -1
+    sb = 1 if qy > 0.0 else -1
+    sc = 1 if qz > 0.0 else -1
     while True:
-        walk, ta, tb, m = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
-        if tb >= t1 or tb <= ta or maj[walk[0], walk[1], walk[2]] <= 0.0:
+        tb = max(min(min(tx, ty), min(tz, t1)), t)  # block_span's exit
+        if tb >= t1 or tb <= t:
+            return tb
+        if tx <= tb:  # next_block, the stepped axis's exit anew
+            a += sa
+            tx = axis_exit(px, qx, a, block, mx)
+        if ty <= tb:
+            b += sb
+            ty = axis_exit(py, qy, b, block, my)
+        if tz <= tb:
+            c += sc
+            tz = axis_exit(pz, qz, c, block, mz)
+        t = tb
+        if maj[a, b, c] <= 0.0:
             return tb

@@ -143,6 +143,44 @@ def test_run_end_is_where_the_ray_first_meets_an_empty_block():
     assert checked > 100
 
 
+def test_run_end_equals_the_block_walk():
+    """``run_end`` keeps each axis's exit and recomputes only the stepped one: the boundary it returns
+    is the block walk's (``walk_step``, every axis's exit at every block) on random rays through a
+    grid with empty blocks, rays parallel to a face and rays starting on one — to 4 ulp, not the
+    bit: compiled in a loop, a division by the ray's direction may become a product with its
+    reciprocal taken once (the fastmath set's ``arcp``), in either function."""
+    from pv_ambient._kernels.majorant import block_at, run_end, walk_step
+
+    def walked(px, py, pz, qx, qy, qz, a, b, c, t, t1, maj, block):
+        walk = (a, b, c, t)
+        while True:
+            walk, ta, tb, _ = walk_step(walk, px, py, pz, qx, qy, qz, t1, maj, block)
+            if tb >= t1 or tb <= ta or maj[walk[0], walk[1], walk[2]] <= 0.0:
+                return tb
+
+    rng = np.random.default_rng(11)
+    block = 8
+    maj = np.where(rng.random((6, 5, 7)) < 0.15, 0.0, 1.0).astype(np.float32)
+    hi = np.array(maj.shape) * block
+    checked = 0
+    for k in range(400):
+        p = rng.uniform(0, hi)
+        if k % 4 == 0:
+            p[k % 3] = block * rng.integers(0, 4)  # on a block face
+        q = rng.normal(size=3)
+        if k % 5 == 0:
+            q[(k // 5) % 3] = 0.0  # parallel to a face
+        q /= np.linalg.norm(q)
+        a, b, c = block_at(p[0], p[1], p[2], maj, block)
+        if maj[a, b, c] <= 0.0:
+            continue
+        args = (p[0], p[1], p[2], q[0], q[1], q[2], a, b, c, 0.0, 80.0, maj, block)
+        want = walked(*args)
+        assert abs(run_end(*args) - want) <= 4 * np.spacing(want), (p, q)
+        checked += 1
+    assert checked > 250
+
+
 def test_tiny_grids(monkeypatch):
     """Axes of two samples render as the per-pixel march does; an axis of one sample (the kernels'
     placeholders) reads that sample twice, never past the array."""
