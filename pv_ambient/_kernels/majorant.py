@@ -176,36 +176,110 @@ def masked_min(values, mask):
     return lows.min() if n0 else np.inf
 
 
+#: The distance :func:`empty_distance` gives where a grid has no empty block.
+NO_EMPTY = 1 << 30
+
+
 @scalar
-def run_end(px, py, pz, qx, qy, qz, a, b, c, t, t1, maj, block):
-    """Where the run of non-empty blocks that block (a, b, c) starts at ``t`` ends along ray
-    ``p + t·q`` (clipped to ``t1``): the walk (:func:`walk_step`) from that block to the first empty
-    block, the grid's edge or ``t1``. The packet driver marches to it without a block lookup — in
-    the per-pixel march a lookup at a boundary between non-empty blocks changes nothing but the
-    next boundary (docs/performance.rst, "CPU camera pass"). The walk keeps each axis's exit and
-    computes it again only for the axis it steps along — the values :func:`walk_step` computes
-    for every axis at every block, with one division a block instead of three: a ray's first
-    lookup walks the whole run, in a scene without empty blocks the whole ray."""
+def _line_distance(line, m):
+    """``line[i] = min_k max(|i − k|, line[k])`` over the first ``m`` entries, in place (one axis of
+    :func:`empty_distance`; a copy of the line's input is kept in its second half)."""
+    for i in range(m):
+        line[m + i] = line[i]
+    for i in range(m):
+        best = line[m + i]
+        for k in range(m):
+            d = max(abs(i - k), line[m + k])
+            if d < best:
+                best = d
+        line[i] = best
+
+
+@driver
+def empty_distance(maj, out):
+    """``out[a, b, c]``: the Chebyshev distance, in blocks, from block (a, b, c) of majorant grid
+    ``maj`` to its nearest empty block (0 for an empty block; :data:`NO_EMPTY` where none is), by
+    one pass per axis of ``d[i] = min_k max(|i − k|, d[k])`` (the distance is separable). Every block
+    less than ``out[a, b, c]`` blocks away along each axis is non-empty: :func:`run_end` crosses
+    such a cube of blocks in one step."""
     mx, my, mz = maj.shape
-    tx = axis_exit(px, qx, a, block, mx)
-    ty = axis_exit(py, qy, b, block, my)
-    tz = axis_exit(pz, qz, c, block, mz)
+    for a in prange(mx):
+        for b in range(my):
+            for c in range(mz):
+                out[a, b, c] = 0 if maj[a, b, c] <= 0.0 else NO_EMPTY
+    for b in prange(my):  # along x
+        line = np.empty(2 * mx, np.int64)
+        for c in range(mz):
+            for a in range(mx):
+                line[a] = out[a, b, c]
+            _line_distance(line, mx)
+            for a in range(mx):
+                out[a, b, c] = line[a]
+    for a in prange(mx):  # along y
+        line = np.empty(2 * my, np.int64)
+        for c in range(mz):
+            for b in range(my):
+                line[b] = out[a, b, c]
+            _line_distance(line, my)
+            for b in range(my):
+                out[a, b, c] = line[b]
+    for a in prange(mx):  # along z
+        line = np.empty(2 * mz, np.int64)
+        for b in range(my):
+            for c in range(mz):
+                line[c] = out[a, b, c]
+            _line_distance(line, mz)
+            for c in range(mz):
+                out[a, b, c] = line[c]
+
+
+@scalar
+def run_end(px, py, pz, qx, qy, qz, a, b, c, t, t1, maj, dist, block):
+    """Where the run of non-empty blocks that block (a, b, c) starts at ``t`` ends along ray
+    ``p + t·q`` (clipped to ``t1``), or a boundary before it: the packet driver marches to it
+    without a block lookup — in the per-pixel march a lookup at a boundary between non-empty blocks
+    changes nothing but the next boundary (docs/performance.rst, "CPU camera pass"). From a block
+    ``dist[a, b, c]`` = d ≥ 2 blocks from the nearest empty one (:func:`empty_distance`) the walk
+    crosses the cube of blocks d − 1 around it in one step — in a grid without empty blocks the
+    whole ray — and otherwise steps one block, keeping each axis's exit and computing it again only
+    for the axis it steps along (the block walk's values, :func:`walk_step`, with one division a
+    block instead of three). A cube's exit through a face is the block walk's boundary there."""
+    mx, my, mz = maj.shape
     sa = 1 if qx > 0.0 else -1
     sb = 1 if qy > 0.0 else -1
     sc = 1 if qz > 0.0 else -1
     while True:
+        r = dist[a, b, c] - 1
+        if r >= 1:
+            if r >= NO_EMPTY - 1:
+                return max(t1, t)
+            tx = axis_exit(px, qx, a + sa * r, block, mx)
+            ty = axis_exit(py, qy, b + sb * r, block, my)
+            tz = axis_exit(pz, qz, c + sc * r, block, mz)
+            tc = max(min(min(tx, ty), min(tz, t1)), t)
+            if tc >= t1:
+                return tc
+            if tc > t:
+                # the block entered at tc: a face's axis one past the cube, the others where the ray is
+                na = a + sa * (r + 1) if tx <= tc else min(max(block_of(px + tc * qx, block, mx), a - r), a + r)
+                nb = b + sb * (r + 1) if ty <= tc else min(max(block_of(py + tc * qy, block, my), b - r), b + r)
+                nc = c + sc * (r + 1) if tz <= tc else min(max(block_of(pz + tc * qz, block, mz), c - r), c + r)
+                a, b, c, t = na, nb, nc, tc
+                if maj[a, b, c] <= 0.0:
+                    return tc
+                continue
+        tx = axis_exit(px, qx, a, block, mx)
+        ty = axis_exit(py, qy, b, block, my)
+        tz = axis_exit(pz, qz, c, block, mz)
         tb = max(min(min(tx, ty), min(tz, t1)), t)  # block_span's exit
         if tb >= t1 or tb <= t:
             return tb
-        if tx <= tb:  # next_block, the stepped axis's exit anew
+        if tx <= tb:  # next_block
             a += sa
-            tx = axis_exit(px, qx, a, block, mx)
         if ty <= tb:
             b += sb
-            ty = axis_exit(py, qy, b, block, my)
         if tz <= tb:
             c += sc
-            tz = axis_exit(pz, qz, c, block, mz)
         t = tb
         if maj[a, b, c] <= 0.0:
             return tb

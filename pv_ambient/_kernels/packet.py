@@ -50,7 +50,7 @@ import numpy as np
 
 from ._jit import driver, prange, scalar, with_globals
 from .geometry import camera_ray, ray_box
-from .majorant import block_at, block_span, run_end
+from .majorant import block_at, block_span, empty_distance, run_end
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
                      step_sample)
 from .models import AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
@@ -157,12 +157,13 @@ def lanes_step(l32, b32, l64, b64, step, ert, world):
 
 
 @scalar
-def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64):
+def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64, dist):
     """Pass 2 (scalar): every lane :func:`lanes_step` left marches as :func:`.raycast.march_pixel`
     does — block lookups and skips, partial segments sampled with ``exp`` of the interpolated σt,
     early termination — until it has a full segment to sample (its position written, active) or
     is done. ``model``: emission–absorption, or single scattering or diffusion with baked lights (the
-    lit sample of :func:`.raycast.march_pixel`). Returns the number of active lanes."""
+    lit sample of :func:`.raycast.march_pixel`); ``dist``: the majorant's :func:`.majorant.empty_distance`.
+    Returns the number of active lanes."""
     step, ert = march.step, march.ert
     maj, block = medium.maj, medium.block
     active = 0
@@ -211,7 +212,7 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
                     tnext = te + step
                     continue
                 # march to the end of this run of non-empty blocks before the next lookup
-                t_block = run_end(px, py, pz, qx, qy, qz, ba, bb, bc, tm, t1, maj, block)
+                t_block = run_end(px, py, pz, qx, qy, qz, ba, bb, bc, tm, t1, maj, dist, block)
             if full_segment(t, te, step) != 0.0:
                 l32[b32 + X * LANES + k] = x
                 l32[b32 + Y * LANES + k] = y
@@ -422,7 +423,8 @@ def packet_driver(model):
     (:func:`._jit.with_globals`), chosen in Python, so no other model's lane loops are left in the
     compiled body, even dead."""
 
-    def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32, l64):
+    def packet_rows(view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha, l32, l64,
+                    dist):
         H, W = out_alpha.shape
         step, ert = march.step, march.ert
         field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
@@ -443,7 +445,7 @@ def packet_driver(model):
                     packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
                     while True:
                         if lanes_step(l32, b32, l64, b64, step, ert, model != EMISSION_ABSORPTION) < LANES and lanes_fix(
-                                model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64) == 0:
+                                model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64, dist) == 0:
                             break
                         sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)  # noqa: F821
                     packet_end(march, i0, j0, j_end, l64, b64, out_rad, out_alpha)
@@ -481,12 +483,30 @@ def scratch():
     return np.zeros(n * N32 * LANES, np.float32), np.zeros(n * N64 * LANES, np.float64)
 
 
+#: The last majorant grids' :func:`.majorant.empty_distance` (kept with the grid itself, which a
+#: camera move passes again: computed once per transfer function).
+_DISTANCES = []
+
+
+def distances(maj):
+    """:func:`.majorant.empty_distance` of majorant grid ``maj`` (int64, its shape), cached for the
+    last few grids."""
+    for held, dist in _DISTANCES:
+        if held is maj:
+            return dist
+    dist = np.empty(maj.shape, np.int64)
+    empty_distance(maj, dist)
+    _DISTANCES.insert(0, (maj, dist))
+    del _DISTANCES[4:]
+    return dist
+
+
 def raycast_packets(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """Rows [row0, row1) of ray-cast ``model``'s image in packets (:func:`applies` must hold)."""
     l32, l64 = scratch()
     driver_model = SINGLE_SCATTERING if model == AMBIENT_SCATTERING else model  # its ball term is in the bake
     PACKET_DRIVERS[driver_model](view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad,
-                                 out_alpha, l32, l64)
+                                 out_alpha, l32, l64, distances(medium.maj))
 
 
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):

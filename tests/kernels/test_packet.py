@@ -118,10 +118,12 @@ def test_run_end_is_where_the_ray_first_meets_an_empty_block():
     count: the ray sampled every 1e-4 of its length in NumPy, the first sample in an empty block of a
     random majorant grid (a third of the blocks empty); equal within that spacing, or the ray's end."""
     from pv_ambient._kernels.majorant import block_at, run_end
+    from pv_ambient._kernels.packet import distances
 
     rng = np.random.default_rng(7)
     block = 4
     maj = np.where(rng.random((5, 4, 6)) < 1 / 3, 0.0, 1.0).astype(np.float32)
+    dist = distances(maj)
     hi = np.array(maj.shape) * block
     checked = 0
     for _ in range(200):
@@ -132,7 +134,7 @@ def test_run_end_is_where_the_ray_first_meets_an_empty_block():
         if maj[a, b, c] <= 0.0:
             continue
         t1 = 30.0
-        got = run_end(p[0], p[1], p[2], q[0], q[1], q[2], a, b, c, 0.0, t1, maj, block)
+        got = run_end(p[0], p[1], p[2], q[0], q[1], q[2], a, b, c, 0.0, t1, maj, dist, block)
         ts = np.arange(0.0, t1, 1e-4)
         pts = p[None, :] + ts[:, None] * q[None, :]
         idx = np.clip(np.floor(pts / block).astype(int), 0, np.array(maj.shape) - 1)
@@ -144,12 +146,13 @@ def test_run_end_is_where_the_ray_first_meets_an_empty_block():
 
 
 def test_run_end_equals_the_block_walk():
-    """``run_end`` keeps each axis's exit and recomputes only the stepped one: the boundary it returns
-    is the block walk's (``walk_step``, every axis's exit at every block) on random rays through a
-    grid with empty blocks, rays parallel to a face and rays starting on one — to 4 ulp, not the
-    bit: compiled in a loop, a division by the ray's direction may become a product with its
-    reciprocal taken once (the fastmath set's ``arcp``), in either function."""
+    """``run_end`` crosses a cube of non-empty blocks in one step and otherwise one block at a time:
+    the boundary it returns is the block walk's (``walk_step``, every block's exits) on random rays
+    through grids with few and with no empty blocks, rays parallel to a face and rays starting on
+    one — to 4 ulp, not the bit: compiled in a loop, a division by the ray's direction may become a
+    product with its reciprocal taken once (the fastmath set's ``arcp``), in either function."""
     from pv_ambient._kernels.majorant import block_at, run_end, walk_step
+    from pv_ambient._kernels.packet import distances
 
     def walked(px, py, pz, qx, qy, qz, a, b, c, t, t1, maj, block):
         walk = (a, b, c, t)
@@ -160,10 +163,13 @@ def test_run_end_equals_the_block_walk():
 
     rng = np.random.default_rng(11)
     block = 8
-    maj = np.where(rng.random((6, 5, 7)) < 0.15, 0.0, 1.0).astype(np.float32)
-    hi = np.array(maj.shape) * block
+    grids = [np.where(rng.random((9, 8, 10)) < p, 0.0, 1.0).astype(np.float32) for p in (0.02, 0.15)]
+    grids.append(np.ones((6, 5, 7), np.float32))
     checked = 0
-    for k in range(400):
+    for k in range(1200):
+        maj = grids[k % 3]
+        dist = distances(maj)
+        hi = np.array(maj.shape) * block
         p = rng.uniform(0, hi)
         if k % 4 == 0:
             p[k % 3] = block * rng.integers(0, 4)  # on a block face
@@ -174,11 +180,42 @@ def test_run_end_equals_the_block_walk():
         a, b, c = block_at(p[0], p[1], p[2], maj, block)
         if maj[a, b, c] <= 0.0:
             continue
-        args = (p[0], p[1], p[2], q[0], q[1], q[2], a, b, c, 0.0, 80.0, maj, block)
-        want = walked(*args)
-        assert abs(run_end(*args) - want) <= 4 * np.spacing(want), (p, q)
+        args = (p[0], p[1], p[2], q[0], q[1], q[2], a, b, c, 0.0, 80.0, maj)
+        want = walked(*args, block)
+        got = run_end(*args, dist, block)
+        if want <= 0.0:
+            # a ray leaving a face it starts on: the walk stops at once (a lookup follows at the next
+            # step); any boundary up to the run's end is right, so no more than a dense sampling's
+            ts = np.arange(0.0, 80.0, 1e-3)
+            idx = np.clip(np.floor((p[None, :] + ts[:, None] * q[None, :]) / block).astype(int), 0,
+                          np.array(maj.shape) - 1)
+            empty = maj[idx[:, 0], idx[:, 1], idx[:, 2]] <= 0.0
+            assert 0.0 <= got <= (ts[np.argmax(empty)] if empty.any() else 80.0) + 1e-3, (k % 3, p, q)
+        else:
+            assert abs(got - want) <= 4 * np.spacing(want), (k % 3, p, q)
         checked += 1
-    assert checked > 250
+    assert checked > 900
+
+
+def test_empty_distance_is_the_chebyshev_distance():
+    """``empty_distance``: each block's Chebyshev distance (in blocks) to the nearest empty block, by
+    brute force over every pair; ``NO_EMPTY`` in a grid without one."""
+    from pv_ambient._kernels.majorant import NO_EMPTY, empty_distance
+
+    rng = np.random.default_rng(5)
+    for shape, p in (((7, 5, 9), 0.05), ((4, 11, 3), 0.3), ((1, 6, 2), 0.2)):
+        maj = np.where(rng.random(shape) < p, 0.0, 2.0).astype(np.float32)
+        maj.flat[rng.integers(maj.size)] = 0.0
+        got = np.empty(shape, np.int64)
+        empty_distance(maj, got)
+        idx = np.indices(shape).reshape(3, -1).T
+        empties = idx[maj.ravel() <= 0.0]
+        want = np.abs(idx[:, None, :] - empties[None, :, :]).max(axis=2).min(axis=1).reshape(shape)
+        assert np.array_equal(got, want), shape
+    got = np.empty((3, 4, 5), np.int64)
+    empty_distance(np.ones((3, 4, 5), np.float32), got)
+    assert np.all(got == NO_EMPTY)
+
 
 
 def test_tiny_grids(monkeypatch):
@@ -242,7 +279,7 @@ real = packet.raycast_packets
 packet.raycast_packets = lambda *a: seen.append(a) or real(*a)
 r.render(camera=pa.Camera((0, -3, 0), (0, 0, 0), (0, 0, 1)), window_size=(8, 8), progress_bar=False)
 # diffusion's driver compiled for the same argument types (no solve: only its code is looked at)
-args = seen[0][1:] + packet.scratch()
+args = seen[0][1:] + packet.scratch() + (packet.distances(seen[0][3].maj),)
 packet.PACKET_DRIVERS[4].compile(tuple(numba.typeof(a) for a in args))
 print("POLICY", load_policy()["loads"])
 print("WIDTH", load_policy()["width"].replace(" ", "_"))
