@@ -533,26 +533,26 @@ def memory(args):
             f" {grow / d['volume']:.1f}× the volume's float32 size ({d['volume'] / mb:.1f} MiB)"]
 
 
-def drag(frames, steps=36):
+def drag(frames, steps=36, interactive_step=16):
     """Frames per second over a ``steps``-frame camera drag (1° azimuth per frame, caches warm) in a
-    PyVista plotter with ``add_ambient_volume(..., interactive=True)`` (defaults: drag resolution half
-    the window per axis, drag step up to 16 resting steps): the render window asks for 15 fps as VTK's
-    interactor does during a drag, so each frame is rendered at the drag resolution and the step
-    doubles while frames are slower than 1/15 s; four drag frames before the clock (the drag-size
-    buffers, and the step found, as it is kept from one drag to the next); then the resting frame at
-    full resolution and the resting step."""
+    PyVista plotter with ``add_ambient_volume(..., interactive=True, interactive_step=...)`` (drag
+    resolution half the window per axis, drag step up to ``interactive_step`` resting steps, 16 the
+    default): the render window asks for 15 fps as VTK's interactor does during a drag, so each
+    frame is rendered at the drag resolution and the step doubles while frames are slower than
+    1/15 s; four drag frames before the clock (the drag-size buffers, and the step found, as it is
+    kept from one drag to the next); then the resting frame at full resolution and the resting step."""
     import pyvista as pv
 
     w, h = frames.size
     lines = [f"camera drag ({steps} frames of 1° in a {w}x{h} plotter, interactive=True: drag frames at"
-             f" half resolution per axis, step up to 16× while frames are slower than 1/15 s; caches warm;"
-             f" target ≥ 10 fps):"]
+             f" half resolution per axis, step up to {interactive_step}× while frames are slower than 1/15 s;"
+             f" caches warm; target ≥ 15 fps):"]
     for model in MODELS:
         pl = pv.Plotter(off_screen=True, window_size=frames.size)
         frames.cam.to_vtk(pl.camera)
         pl.camera_set = True
         vol = pa.add_ambient_volume(pl, renderer=frames.renderer, model=MODELS[model], interactive=True,
-                                    step=frames.step)
+                                    step=frames.step, interactive_step=interactive_step)
         win = pl.ren_win
         win.SetDesiredUpdateRate(15.0)
         for _ in range(4):  # the first drag frames: the drag-size buffers, the drag step found
@@ -637,7 +637,10 @@ def main(argv=None):
     ap.add_argument("--memory-only", action="store_true",
                     help="only the memory line (no VTK table), into speed_memory_n{N}.txt")
     ap.add_argument("--drag-only", action="store_true",
-                    help="only the camera drag (no VTK table), into speed_drag_n{N}.txt")
+                    help="only the camera drag (no VTK table), into speed_drag_n{N}.txt (speed_drag_step{S}_n{N}.txt"
+                         " with a --drag-step other than 16)")
+    ap.add_argument("--drag-step", type=int, default=16,
+                    help="the drags' interactive_step: the longest drag step, in resting steps (default 16)")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"), help="folder of speed_n{N}.txt")
     ap.add_argument("--threads", default="1,2", help="thread counts of --threads-scaling (comma-separated)")
     ap.add_argument("--scaling-only", action="store_true",
@@ -663,9 +666,10 @@ def main(argv=None):
         for model in MODELS:  # every model's caches warm before the drags
             frames.render(frames.renderer, model, frames.cam)
         lines = [command_line(), "", f"supernova {args.n}³, the rows' scene and renderer;"
-                 f" {numba.get_num_threads()} Numba threads", ""] + drag(frames)
+                 f" {numba.get_num_threads()} Numba threads", ""] + drag(frames, interactive_step=args.drag_step)
         print("\n".join(lines))
-        return write_result(args, "speed_drag", lines)
+        name = "speed_drag" if args.drag_step == 16 else f"speed_drag_step{args.drag_step}"
+        return write_result(args, name, lines)
     if args.scaling_only:
         lines = [command_line(), "", f"supernova {args.n}³, {size[0]}x{size[1]}, the rows' scene;"
                  f" medians of {args.repeats}", ""] + threads_scaling(args)
@@ -694,7 +698,7 @@ def main(argv=None):
     table += format_table(rows)
     lines += table
     for flag, fn in ((args.threads_scaling, lambda: threads_scaling(args)), (args.memory, lambda: memory(args)),
-                     (args.drag, lambda: drag(frames))):
+                     (args.drag, lambda: drag(frames, interactive_step=args.drag_step))):
         if flag:
             extra = [""] + fn()
             table += extra
