@@ -196,41 +196,30 @@ def _line_distance(line, m):
 
 
 @driver
-def empty_distance(maj, out):
-    """``out[a, b, c]``: the Chebyshev distance, in blocks, from block (a, b, c) of majorant grid
-    ``maj`` to its nearest empty block (0 for an empty block; :data:`NO_EMPTY` where none is), by
+def _distance_along_first(d):
+    """One axis of :func:`empty_distance`: every line of ``d`` along its first axis through
+    :func:`_line_distance` (``d`` a view with that axis first)."""
+    m, u, v = d.shape
+    for j in prange(u):
+        line = np.empty(2 * m, np.int64)
+        for k in range(v):
+            for i in range(m):
+                line[i] = d[i, j, k]
+            _line_distance(line, m)
+            for i in range(m):
+                d[i, j, k] = line[i]
+
+
+def empty_distance(maj):
+    """The Chebyshev distance, in blocks, from each block of majorant grid ``maj`` to its nearest
+    empty block (int64, ``maj``'s shape; 0 for an empty block, :data:`NO_EMPTY` where none is), by
     one pass per axis of ``d[i] = min_k max(|i − k|, d[k])`` (the distance is separable). Every block
-    less than ``out[a, b, c]`` blocks away along each axis is non-empty: :func:`run_end` crosses
-    such a cube of blocks in one step."""
-    mx, my, mz = maj.shape
-    for a in prange(mx):
-        for b in range(my):
-            for c in range(mz):
-                out[a, b, c] = 0 if maj[a, b, c] <= 0.0 else NO_EMPTY
-    for b in prange(my):  # along x
-        line = np.empty(2 * mx, np.int64)
-        for c in range(mz):
-            for a in range(mx):
-                line[a] = out[a, b, c]
-            _line_distance(line, mx)
-            for a in range(mx):
-                out[a, b, c] = line[a]
-    for a in prange(mx):  # along y
-        line = np.empty(2 * my, np.int64)
-        for c in range(mz):
-            for b in range(my):
-                line[b] = out[a, b, c]
-            _line_distance(line, my)
-            for b in range(my):
-                out[a, b, c] = line[b]
-    for a in prange(mx):  # along z
-        line = np.empty(2 * mz, np.int64)
-        for b in range(my):
-            for c in range(mz):
-                line[c] = out[a, b, c]
-            _line_distance(line, mz)
-            for c in range(mz):
-                out[a, b, c] = line[c]
+    less than ``d`` blocks away along each axis is non-empty: :func:`run_end` crosses such a cube of
+    blocks in one step."""
+    out = np.where(np.asarray(maj) <= 0.0, 0, NO_EMPTY).astype(np.int64)
+    for axes in ((0, 1, 2), (1, 0, 2), (2, 0, 1)):
+        _distance_along_first(out.transpose(axes))
+    return out
 
 
 @scalar

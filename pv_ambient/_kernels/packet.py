@@ -494,8 +494,7 @@ def distances(maj):
     for held, dist in _DISTANCES:
         if held is maj:
             return dist
-    dist = np.empty(maj.shape, np.int64)
-    empty_distance(maj, dist)
+    dist = empty_distance(maj)
     _DISTANCES.insert(0, (maj, dist))
     del _DISTANCES[4:]
     return dist

@@ -452,30 +452,22 @@ class SceneStages:
         """``(Coarsening, coarse DiffusionMedium)`` of the grid twice as coarse that plain diffusion
         may be solved on, or None where the medium is too thick per coarse cell or the grid too small
         (:func:`pv_ambient.stages.diffusion.coarse.thin_enough`; cached per scene)."""
-        from ..stages.diffusion.coarse import Coarsening, thin_enough
-
-        def build():
-            co = Coarsening.of(self.geometry)
-            if not co.coarser or not thin_enough(self._diffusion_medium().sigma_t, self.geometry.spacing):
-                return None
-            return co, co.medium(self._diffusion_medium())
-
-        return self.cache.get(("diffusion_coarse",), build)
+        return self.cache.get(("diffusion_coarse",), lambda: self._coarse_of(self._diffusion_medium()))
 
     def coarse_remainder(self):
         """``(Coarsening, coarse DiffusionMedium)`` on which the sweeps' remainder may be diffused: the
         sweeps' medium (:func:`pv_ambient.stages.diffusion.hat_medium`) restricted to the grid twice
         as coarse, or None where it is too thick per coarse cell or the grid too small (the rule of
         :meth:`coarse_solve`; cached per scene)."""
+        return self.cache.get(("diffusion_coarse_hat",), lambda: self._coarse_of(self._hat_medium()))
+
+    def _coarse_of(self, medium):
         from ..stages.diffusion.coarse import Coarsening, thin_enough
 
-        def build():
-            co = Coarsening.of(self.geometry)
-            if not co.coarser or not thin_enough(self._hat_medium().sigma_t, self.geometry.spacing):
-                return None
-            return co, co.medium(self._hat_medium())
-
-        return self.cache.get(("diffusion_coarse_hat",), build)
+        co = Coarsening.of(self.geometry)
+        if not co.coarser or not thin_enough(medium.sigma_t, self.geometry.spacing):
+            return None
+        return co, co.medium(medium)
 
     def _hat_medium(self):
         from ..stages.diffusion import hat_medium
