@@ -149,6 +149,35 @@ def test_each_quality_solves_to_its_own_tolerance(monkeypatch):
     assert metrics.block_relative_rmse(balanced, tight.radiance.astype(np.float64)) <= 1e-4
 
 
+def _coarse_against_full(monkeypatch, grid, lights, opts, preset_key, marker):
+    """Render ``opts`` with the preset's coarse option on (every diffusion cache key ends in
+    ``marker``), then off (keys end in False): the pictures within 0.01 (4×4-block error). Returns
+    the first renderer."""
+    from pv_ambient import metrics
+    from pv_ambient.rendering.presets import QUALITY_PRESETS
+
+    r = renderer(grid, lights)
+    coarse = r.render(**opts).radiance.astype(np.float64)
+    assert all(k[-1] == marker and type(k[-1]) is type(marker) for k in r.cache.keys("diffusion"))
+    monkeypatch.setitem(QUALITY_PRESETS[opts["quality"]], preset_key, False)
+    r2 = renderer(grid, lights)
+    full = r2.render(**opts).radiance.astype(np.float64)
+    assert all(k[-1] is False for k in r2.cache.keys("diffusion"))
+    assert coarse.max() > 0
+    assert metrics.block_relative_rmse(coarse, full) <= 0.01
+    return r
+
+
+def _forward_scattering_asks(monkeypatch, r, lights, **kw):
+    """What ``coarse`` the stage passes its solve for g = 0.5 (no solve run here)."""
+    from pv_ambient.inputs.phase import HenyeyGreenstein
+
+    asked = []
+    monkeypatch.setattr(r.stages, "_solve", lambda *a: asked.append(a[-1]) or (np.zeros((1, 1, 1, 1), np.float32), None))
+    r.stages.diffusion(lights, r.stages.light_grid(), HenyeyGreenstein(0.5), **kw)
+    return asked
+
+
 def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
     """Why: on a large grid whose medium is thin per coarse cell, the preview and balanced presets
     solve plain diffusion of an isotropic phase function on a grid twice as coarse, with a box
@@ -156,29 +185,15 @@ def test_coarse_solve_where_the_medium_is_thin(monkeypatch):
     picture stays within 0.01 (4×4-block error) of the full-resolution solve, with a point light
     inside the medium and a directional one; forward scattering and a thick medium keep the full
     resolution."""
-    from pv_ambient import metrics
-    from pv_ambient.rendering.presets import QUALITY_PRESETS
     from pv_ambient.inputs.lights import DirectionalLight
-    from pv_ambient.inputs.phase import HenyeyGreenstein
     from pv_ambient.stages.diffusion import coarse as dcoarse
 
     grid = physical_grid(n=161, sigma=3.0)  # σt·2h ≤ 0.075
     lights = [PointLight((0.1, -0.05, 0.0), intensity=(3.0, 2.5, 2.0)), DirectionalLight((0.2, 0.3, -1.0), 0.5)]
     opts = dict(camera=CAM, window_size=(32, 32), model="diffusion", quality="preview", step=0.03)
-    r = renderer(grid, lights)
-    coarse = r.render(**opts).radiance.astype(np.float64)
+    r = _coarse_against_full(monkeypatch, grid, lights, opts, "diffusion_coarse", True)
     assert r.stages.coarse_solve()[0].shape == (81, 81, 81)
-    assert all(k[-1] is True for k in r.cache.keys("diffusion"))
-    monkeypatch.setitem(QUALITY_PRESETS["preview"], "diffusion_coarse", False)
-    r2 = renderer(grid, lights)
-    full = r2.render(**opts).radiance.astype(np.float64)
-    assert all(k[-1] is False for k in r2.cache.keys("diffusion"))
-    assert coarse.max() > 0
-    assert metrics.block_relative_rmse(coarse, full) <= 0.01
-    asked = []  # forward scattering: the stage decides for the full resolution (no solve run here)
-    monkeypatch.setattr(r.stages, "_solve", lambda *a: asked.append(a[-1]) or (np.zeros((1, 1, 1, 1), np.float32), None))
-    r.stages.diffusion(lights[:1], r.stages.light_grid(), HenyeyGreenstein(0.5), coarse=True)
-    assert asked == [False]
+    assert _forward_scattering_asks(monkeypatch, r, lights[:1], coarse=True) == [False]
     assert any(k[-1] is False and k[3] == 0.5 for k in r.cache.keys("diffusion"))
     monkeypatch.setattr(dcoarse, "COARSE_SIGMA_H", 0.01)  # as if the medium were thick per coarse cell
     thick = renderer(grid, lights)
@@ -192,9 +207,6 @@ def test_sweeps_remainder_on_the_coarse_grid(monkeypatch):
     gate lowered here so that a 65³ grid qualifies). The picture stays within 0.01 (4×4-block
     error) of the full-resolution remainder with a point light inside the medium; forward
     scattering keeps the full resolution."""
-    from pv_ambient import metrics
-    from pv_ambient.rendering.presets import QUALITY_PRESETS
-    from pv_ambient.inputs.phase import HenyeyGreenstein
     from pv_ambient.stages.diffusion import coarse as dcoarse
 
     monkeypatch.setattr(dcoarse, "COARSE_MIN_NODES", 1)
@@ -202,17 +214,6 @@ def test_sweeps_remainder_on_the_coarse_grid(monkeypatch):
     lights = [PointLight((0.1, -0.05, 0.0), intensity=(3.0, 2.5, 2.0))]
     opts = dict(camera=CAM, window_size=(32, 32), model="diffusion", quality="balanced", step=0.03,
                 sweep_orders=2, flux_limited=True)
-    r = renderer(grid, lights)
-    coarse = r.render(**opts).radiance.astype(np.float64)
+    r = _coarse_against_full(monkeypatch, grid, lights, opts, "sweep_remainder_coarse", "remainder")
     assert r.stages.coarse_remainder()[0].shape == (33, 33, 33)
-    assert all(k[-1] == "remainder" for k in r.cache.keys("diffusion"))
-    monkeypatch.setitem(QUALITY_PRESETS["balanced"], "sweep_remainder_coarse", False)
-    r2 = renderer(grid, lights)
-    full = r2.render(**opts).radiance.astype(np.float64)
-    assert all(k[-1] is False for k in r2.cache.keys("diffusion"))
-    assert coarse.max() > 0
-    assert metrics.block_relative_rmse(coarse, full) <= 0.01
-    asked = []  # forward scattering: the stage decides for the full resolution (no solve run here)
-    monkeypatch.setattr(r.stages, "_solve", lambda *a: asked.append(a[-1]) or (np.zeros((1, 1, 1, 1), np.float32), None))
-    r.stages.diffusion(lights, r.stages.light_grid(), HenyeyGreenstein(0.5), sweep_orders=2, coarse_remainder=True)
-    assert asked == [False]
+    assert _forward_scattering_asks(monkeypatch, r, lights, sweep_orders=2, coarse_remainder=True) == [False]
