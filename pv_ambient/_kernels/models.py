@@ -22,3 +22,8 @@ DIFFUSION = 4
 
 #: Every ray-cast model id, in the order docs/models.rst lists the models.
 RAYCAST_MODELS = (EMISSION_ABSORPTION, AMBIENT_OCCLUSION, SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)
+
+#: Not a model: a draft frame's ray cast (:mod:`.draft`), which reads each sample's source from a
+#: record shaded beforehand on every other data sample instead of evaluating the model there —
+#: what an interactive drag renders for any lit model whose source does not depend on the view.
+DRAFT = 5

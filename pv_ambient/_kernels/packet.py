@@ -53,7 +53,8 @@ from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span, empty_distance, run_end
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
                      step_sample)
-from .models import AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, SINGLE_SCATTERING
+from .models import AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, SINGLE_SCATTERING
+from .draft import draft_sample, draft_source
 from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_layout, diffusion_rgb, grid_point, point_weight
 from .raycast import STREAM_JITTER, TILE, index_ray, lit_table_source, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
@@ -229,8 +230,11 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
             q0, fq = step_lookup(medium.field, march.opacity, medium.lut_lo, medium.lut_inv, x, y, z)
             a = step_opacity(march.opacity, q0, fq, 0.0, te - t)
             if a > 0.0:
-                cr, cg, cb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
-                                          oz + tm * dz, lights, grid, ambient, diffusion)
+                if model == DRAFT:
+                    cr, cg, cb = draft_source(diffusion.field, x, y, z)
+                else:
+                    cr, cg, cb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
+                                              oz + tm * dz, lights, grid, ambient, diffusion)
                 w = T * a
                 l64[b64 + RR * LANES + k] += w * cr
                 l64[b64 + RG * LANES + k] += w * cg
@@ -261,6 +265,21 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, gr
     for k in range(LANES):
         a, cr, cg, cb = step_sample(field, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                                     l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
+        l32[np.uint64(b32 + A * LANES + k)] = a * l32[np.uint64(b32 + ACT * LANES + k)]
+        l32[np.uint64(b32 + SR * LANES + k)] = cr
+        l32[np.uint64(b32 + SG * LANES + k)] = cg
+        l32[np.uint64(b32 + SB * LANES + k)] = cb
+    lanes_composite(l32, b32, l64, b64)
+
+
+@scalar(inline=True)
+def lanes_sample_draft(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
+    """Pass 3 of a draft frame (vectorised): every lane samples its full segment of the draft record
+    ``dfield`` with :func:`.draft.draft_sample` (its opacity, zero for an inactive lane, and source),
+    then :func:`lanes_composite` (``field``, ``lights`` and ``grid`` unused)."""
+    for k in range(LANES):
+        a, cr, cg, cb = draft_sample(dfield, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
+                                     l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
         l32[np.uint64(b32 + A * LANES + k)] = a * l32[np.uint64(b32 + ACT * LANES + k)]
         l32[np.uint64(b32 + SR * LANES + k)] = cr
         l32[np.uint64(b32 + SG * LANES + k)] = cg
@@ -429,6 +448,7 @@ def packet_driver(model):
         step, ert = march.step, march.ert
         field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
         dfield = diffusion.field
+        lit = model == SINGLE_SCATTERING or model == DIFFUSION  # pass 3 reads world positions (1/d²)
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
         n = n_rows * n_cols
@@ -444,7 +464,7 @@ def packet_driver(model):
                 for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
                     packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
                     while True:
-                        if lanes_step(l32, b32, l64, b64, step, ert, model != EMISSION_ABSORPTION) < LANES and lanes_fix(
+                        if lanes_step(l32, b32, l64, b64, step, ert, lit) < LANES and lanes_fix(
                                 model, march, medium, lights, grid, ambient, diffusion, l32, b32, l64, b64, dist) == 0:
                             break
                         sample(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield)  # noqa: F821
@@ -454,10 +474,11 @@ def packet_driver(model):
 
 
 #: Each packet model's pass 3 (:func:`packet_driver`).
-PASS3 = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit, DIFFUSION: lanes_sample_diffusion}
+PASS3 = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit, DIFFUSION: lanes_sample_diffusion,
+         DRAFT: lanes_sample_draft}
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
-PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING, DIFFUSION)}
+PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING, DIFFUSION, DRAFT)}
 
 
 def enabled() -> bool:
@@ -511,8 +532,8 @@ def raycast_packets(model, view, march, medium, lights, grid, ambient, diffusion
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):
     """Rows [row0, row1) of the image with ray-cast ``model`` on the CPU: in packets where they apply
     (:func:`applies`), else one ray at a time (:func:`.raycast.raycast_image`); the scene in the
-    records of :mod:`.records`."""
-    if applies(model, medium, grid):
+    records of :mod:`.records`; a draft frame (model :data:`.models.DRAFT`) always in packets."""
+    if model == DRAFT or applies(model, medium, grid):
         raycast_packets(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha)
     else:
         raycast_image_scalar(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad,

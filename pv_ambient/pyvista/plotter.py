@@ -233,10 +233,12 @@ class AmbientVolume(DragStep):
             opts["step"] = step
             # a long step marched from the same place on every ray bands thin layers (wood grain)
             # and shifts the picture's mean; jittered starts turn that into fine noise
-            # (docs/display.rst, "Interactive mode")
+            # (docs/guide.rst, "In a plotter")
             opts.setdefault("jitter", True)
         if self.moving:  # a drag frame takes a fraction of a second: no delayed progress bar (its thread)
             opts.setdefault("progress_bar", False)
+            # the volume and its lighting on every other data sample (docs/guide.rst, "In a plotter")
+            opts.setdefault("draft", True)
         opts.update(extra)
         return self.renderer.render(camera=cam, window_size=size, model=self.model, **opts)
 

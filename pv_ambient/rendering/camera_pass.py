@@ -18,6 +18,7 @@ import numpy as np
 from .._kernels import records as K
 from .. import backend
 from ..inputs.lights import pack_lights
+from .draft import draft_applies, draft_args
 from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS, QUALITY_PRESETS
 from .request import stage_bar
 from .result import RenderResult
@@ -180,12 +181,14 @@ def render_camera_pass(renderer, req, model, options, records=None) -> RenderRes
     rad, alpha = backend.image_buffers(h, w, zero=renderer.geometry.is_empty)
     inputs = gather_inputs(renderer, req, model, options)
     t_prep = time.perf_counter() - t_start
-    bake, used = False, req.backend
+    bake, used, draft = False, req.backend, False
     if not renderer.geometry.is_empty:
         args, bake = raycast_records(renderer, req, model, options, inputs)
-        t_prep = time.perf_counter() - t_start
         if records is not None:
             records.append(args)
+        if draft_applies(req, args):
+            args, draft = draft_args(renderer, args), True
+        t_prep = time.perf_counter() - t_start
         inner = req.progress_bar is True  # the kernel's own bar (image tiles)
         with stage_bar(req.progress_bar if not inner else False, f"ray cast ({model})"):
             used = backend.run_raycast(args, rad, alpha, backend=req.backend, asked=req.asked,
@@ -194,6 +197,7 @@ def render_camera_pass(renderer, req, model, options, records=None) -> RenderRes
     else:
         rad[:] = req.background
     meta = _metadata(renderer, req, model, options, inputs, bake, used)
+    meta["draft"] = draft
     meta.update(time_prepare=t_prep, time_render=time.perf_counter() - t_start - t_prep)
     return RenderResult(radiance=rad, alpha=alpha, camera=req.camera, metadata=meta)
 

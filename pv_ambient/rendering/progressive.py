@@ -46,7 +46,7 @@ def _view_key(renderer, req, base, base_options) -> tuple:
             np.asarray(cam.params(size), np.float64).tobytes(), tuple(size), req.step, req.radius,
             req.propagation, req.phase.canonical(), req.light_resolution, req.table_quality, req.bake_lights,
             req.early_termination, req.background.tobytes(), req.backend,
-            (req.jitter, req.seed if req.jitter else None))  # (the seed moves a jittered march)
+            (req.jitter, req.seed if req.jitter else None), req.draft)  # (the seed moves a jittered march)
 
 
 def _control(renderer, req, records):

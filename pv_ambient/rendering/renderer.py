@@ -187,7 +187,7 @@ class Renderer:
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
                progress_bar=None, radius=None, light_resolution=None, ambient_radiance=1.0,
-               propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None,
+               propagation=DEFAULT_PROPAGATION, table_quality=None, ray_end=None, backend=None, draft=False,
                **model_options) -> RenderResult:
         """Render one image.
 
@@ -304,6 +304,13 @@ class Renderer:
             CPU with a warning when the scene does not fit in the GPU's free memory;
             ``metadata["backend"]`` says which ran and ``metadata["device_memory"]`` the bytes
             the scene holds on the GPU.
+        draft : bool, default: False
+            A quick preview for interaction (what ``add_ambient_volume(..., interactive=True)``
+            renders while the camera moves): the volume and, for a lit model, its lighting
+            sampled on every other data sample per axis, the lighting shaded there once and
+            interpolated between (docs/guide.rst, "In a plotter"). Ray-cast models of a
+            table transfer function on the CPU (a lit model with baked in-scattering); elsewhere
+            the full frame. ``metadata["draft"]`` says which was rendered.
         **model_options
             Knobs of other models (see ``MODEL_OPTIONS``); unknown names are an error, and an
             option that needs an optional package (``denoise=True``: ``pyoidn``) raises its

@@ -47,6 +47,7 @@ class RenderRequest:
     time_budget: float | None
     options: dict = field(default_factory=dict)
     explicit: frozenset = frozenset()
+    draft: bool = False
 
 
 def check_ray_end(ray_end, size):
@@ -391,7 +392,7 @@ def check_model_options(model, options) -> dict:
 
 def build_request(renderer, *, camera, window_size, model, quality, step, jitter, seed, background, early_termination,
                   phase, progress_bar, radius, light_resolution, ambient_radiance, propagation, table_quality,
-                  ray_end, backend, model_options) -> RenderRequest:
+                  ray_end, backend, model_options, draft=False) -> RenderRequest:
     """Check :meth:`pv_ambient.Renderer.render`'s arguments once (for ``renderer``'s scene) into a
     frozen :class:`RenderRequest`."""
     from ..backend import check_backend, resolve_backend
@@ -432,4 +433,5 @@ def build_request(renderer, *, camera, window_size, model, quality, step, jitter
         radius=resolve_radius(radius, model, renderer.geometry.spacing), t_end=check_ray_end(ray_end, size),
         light_resolution=light_resolution, table_quality=table_quality, propagation=propagation,
         bake_lights=bool(preset["bake_lights"]), asked=asked, progress_bar=None if progress_bar is None else bool(progress_bar),
-        backend=resolve_backend(asked), time_budget=budget, options=model_options, explicit=explicit)
+        backend=resolve_backend(asked), time_budget=budget, options=model_options, explicit=explicit,
+        draft=bool(draft))

@@ -45,9 +45,11 @@ def test_drag_renders_reduced_and_the_resting_frame_is_a_normal_render(scene, mo
         w, h = vol.result.window_size
         assert (w, h) == (int(np.ceil(SIZE[0] * fraction)), int(np.ceil(SIZE[1] * fraction)))
         assert 2 * w >= SIZE[0] and 2 * h >= SIZE[1]  # never below half the window per axis
+        assert vol.volume_result.metadata["draft"]  # a draft frame (rendering/draft.py)
     win.SetDesiredUpdateRate(0.0001)  # the camera rests: the interactor's still rate
     win.Render()
     assert not vol.moving and vol.renders == 5 and vol.result.window_size == SIZE
+    assert not vol.volume_result.metadata["draft"]
     ref = pa.render(grid, transfer_function=tf, lights=lights, model=model, camera=pl.camera, window_size=SIZE)
     assert np.array_equal(vol.volume_result.radiance, ref.radiance)
     # the plotter keeps the exposure its first picture resolved ("auto" for a lit model)
@@ -83,8 +85,8 @@ def test_interactive_options_are_checked(scene, option, bad):
 
 def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal_step(scene):
     """A drag frame slower than the rate the window asks for doubles the ray step (up to
-    ``interactive_step``); each drag frame equals a render at that step and the drag resolution,
-    with jittered ray starts once the step is longer than the resting one; fast frames halve the
+    ``interactive_step``); each drag frame equals a draft render at that step and the drag
+    resolution, with jittered ray starts once the step is longer than the resting one; fast frames halve the
     step again; the resting frame is the normal render (resting step, no jitter)."""
     grid, tf, lights = scene
     pl = plotter(SIZE)
@@ -101,7 +103,7 @@ def test_slow_drag_frames_lengthen_the_step_up_to_its_cap_and_rest_at_the_normal
         win.Render()
         seen.append(factor)
         ref = vol.renderer.render(camera=pa.Camera.from_vtk(pl.camera), window_size=vol.result.window_size,
-                                  model="ambient_scattering", step=base * factor, jitter=factor > 1)
+                                  model="ambient_scattering", step=base * factor, jitter=factor > 1, draft=True)
         assert np.array_equal(vol.volume_result.radiance, ref.radiance)
     assert seen == [1, 2, 4, 4] and vol.step_factor == 4  # doubled per slow frame, capped
     win.SetDesiredUpdateRate(1.0)  # a budget of 1 s: every frame is fast, the step halves
@@ -277,7 +279,7 @@ def test_drag_frames_start_no_progress_bar_and_move_the_plane(scene, monkeypatch
 
 
 def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
-    """``progressive``: a drag frame is its base model's picture (no samples, no noise); the
+    """``progressive``: a drag frame is its base model's draft picture (no samples, no noise); the
     resting frame adds ``interactive_samples`` residual samples, each refinement as many again with
     the next seed, their mean the same as one render of all of them."""
     grid, tf, lights = scene
@@ -293,7 +295,7 @@ def test_progressive_is_noise_free_while_dragged_and_refines_at_rest(scene):
     win.Render()
     assert vol.moving and vol.volume_result.metadata["spp"] == 0
     base = r.render(camera=pl.camera, window_size=SIZE, model="diffusion", flux_limited=True,
-                    sweep_orders=AUTO_SWEEP_ORDERS)
+                    sweep_orders=AUTO_SWEEP_ORDERS, draft=True)  # a drag frame is a draft
     np.testing.assert_array_equal(vol.volume_result.radiance, base.radiance)
     win.SetDesiredUpdateRate(0.0001)  # the camera rests
     win.Render()
