@@ -3,12 +3,13 @@
 
 A lit model's sample reads the scalar and its table, each light's baked slot with its ``1/d²`` and,
 for diffusion, its field: several arrays at the data's resolution and beyond, for a picture that
-is shown for a fraction of a second. A draft frame reads one record per corner instead,
-``(scalar, source rgb)`` float32 on every other data sample per axis
-(:data:`pv_ambient.stages.draft.FACTOR`) (a level of an eighth of the
-samples, so the corners a ray touches stay in cache at a drag's longer step), shaded once by
-:func:`shade_nodes` with the model's own per-sample function (:func:`.raycast.table_source`) at
-those samples. The sample's opacity still comes from the interpolated scalar through the
+is shown for a fraction of a second. A draft frame reads one packed record per corner instead: on
+every other data sample per axis (:data:`pv_ambient.stages.draft.FACTOR`; a level of an eighth of
+the samples, so the corners a ray touches stay in cache at a drag's longer step) the scalar and
+the model's source rgb, shaded once by :func:`shade_nodes` with the model's own per-sample function
+(:func:`.raycast.table_source`) at those samples and packed into two 32-bit words of 16-bit codes
+(:func:`pv_ambient.stages.draft.pack_record`): two gathers per corner where the unpacked record
+takes four. The sample's opacity still comes from the interpolated scalar through the
 step-corrected table (:func:`draft_sample`), so opacity and the transfer function's edges are the
 full frame's; the source is interpolated between the shaded samples (pre-shaded, as a
 pre-classified colour), which blurs the lighting over two data samples and rounds off a point
@@ -18,33 +19,71 @@ light's ``1/d²`` peak. The packet driver runs it as model :data:`.models.DRAFT`
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._jit import driver, prange, scalar
-from .medium import clamp32, corner32, corners32, min_index, step_column, step_lookup
+from .medium import clamp32, corners32, min_index, step_column, step_lookup
 from .raycast import table_source
+
+#: The largest 16-bit code of a packed record's values (:func:`pv_ambient.stages.draft.pack_record`).
+CODE = 65535
+
+
+@scalar(force_inline=True)
+def unpack(rec, i, j, k):
+    """The four values of packed record ``rec`` (uint32 ``(m0, m1, m2, 2)``) at level sample
+    (i, j, k): the scalar's 16-bit code and the squares of the source's three square-root codes
+    (float32). ``np.uint32`` of each word also lets a float32 array type-check here (a dead branch
+    of the other models' scalar pass)."""
+    w0 = np.uint32(rec[i, j, k, np.uint32(0)])
+    w1 = np.uint32(rec[i, j, k, np.uint32(1)])
+    low = np.uint32(0xFFFF)
+    r = np.float32(w0 >> np.uint32(16))
+    g = np.float32(w1 & low)
+    b = np.float32(w1 >> np.uint32(16))
+    return np.float32(w0 & low), r * r, g * g, b * b
+
+
+@scalar(force_inline=True)
+def lerp4(a, b, f):
+    """``a + f·(b − a)`` of two 4-tuples."""
+    return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]), a[3] + f * (b[3] - a[3]))
+
+
+@scalar(force_inline=True)
+def draft_values(rec, x, y, z):
+    """The packed record's four values (:func:`unpack`) interpolated trilinearly at level index-space
+    point (x, y, z) (float32, unsigned indices: the packet driver's lane loop vectorises it; two
+    gathers per corner)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
+    c00 = lerp4(unpack(rec, i0, j0, k0), unpack(rec, i1, j0, k0), fx)
+    c10 = lerp4(unpack(rec, i0, j1, k0), unpack(rec, i1, j1, k0), fx)
+    c01 = lerp4(unpack(rec, i0, j0, k1), unpack(rec, i1, j0, k1), fx)
+    c11 = lerp4(unpack(rec, i0, j1, k1), unpack(rec, i1, j1, k1), fx)
+    return lerp4(lerp4(c00, c10, fy), lerp4(c01, c11, fy), fz)
+
 
 @scalar(force_inline=True)
 def draft_sample(rec, stab, lut_lo, lut_inv, x, y, z):
-    """(opacity of one full step, source rgb) at level index-space point (x, y, z) of draft record
-    ``rec`` (float32 ``(m0, m1, m2, 4)``: scalar, source rgb): the scalar interpolated and looked up
-    in the step-corrected table ``stab`` as :func:`.medium.step_lookup` does, the source
-    interpolated (float32, unsigned indices: the packet driver's lane loop vectorises it)."""
-    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
+    """(opacity of one full step, source rgb over the record's scale) at level index-space point
+    (x, y, z) of packed draft record ``rec``: the scalar's code interpolated and looked up in the
+    step-corrected table ``stab`` as :func:`.medium.step_lookup` does (``lut_lo``, ``lut_inv``: the
+    code's mapping to the table), the source interpolated (float32)."""
+    s, r, g, b = draft_values(rec, x, y, z)
     nt = stab.shape[0]
-    s = corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 0)
     u = clamp32((s - np.float32(lut_lo)) * np.float32(lut_inv), np.float32(nt - 1))
     q0 = min_index(np.uint64(np.uint32(u)), np.uint64(nt - 2))
-    return (step_column(stab, q0, u - np.float32(q0), 0), corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 1),
-            corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 2), corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3))
+    return step_column(stab, q0, u - np.float32(q0), 0), r, g, b
 
 
 @scalar(force_inline=True)
 def draft_source(rec, x, y, z):
-    """The source rgb of draft record ``rec`` at level index-space point (x, y, z)."""
-    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
-    return (corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 1), corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 2),
-            corner32(rec, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3))
+    """The source rgb (over the record's scale) of packed draft record ``rec`` at level index-space
+    point (x, y, z)."""
+    _, r, g, b = draft_values(rec, x, y, z)
+    return r, g, b
 
 
 @scalar(inline=True)
@@ -80,3 +119,31 @@ def shade_nodes(model, march, medium, lights, grid, ambient, diffusion, i2w, fac
                 out[i, j, k, 1] = cr
                 out[i, j, k, 2] = cg
                 out[i, j, k, 3] = cb
+
+
+@driver
+def pack_nodes(rec, m, lut_lo, lut_inv, top, out):
+    """Pack the shaded record ``rec`` (float32 ``(m0, m1, m2, 4)``) into ``out`` (uint32
+    ``(m0, m1, m2, 2)``; :func:`pv_ambient.stages.draft.pack_record` states the codes): the scalar's
+    table coordinate over [−m, 2m], each source channel's square root of its fraction of ``top``."""
+    for i in prange(rec.shape[0]):
+        for j in range(rec.shape[1]):
+            for k in range(rec.shape[2]):
+                u = (np.float64(rec[i, j, k, 0]) - lut_lo) * lut_inv
+                c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
+                qs = np.uint32(math.floor(c * CODE + 0.5))
+                qr = _code(rec[i, j, k, 1], top)
+                qg = _code(rec[i, j, k, 2], top)
+                qb = _code(rec[i, j, k, 3], top)
+                out[i, j, k, 0] = qs | (qr << np.uint32(16))
+                out[i, j, k, 1] = qg | (qb << np.uint32(16))
+
+
+@scalar(inline=True)
+def _code(v, top):
+    """The 16-bit square-root code of source value ``v`` over ``top`` (0 for a negative or NaN value,
+    the top code above ``top``)."""
+    f = np.float64(v) / top
+    f = f if f > 0.0 else 0.0  # NaN and negatives: 0
+    f = f if f < 1.0 else 1.0
+    return np.uint32(math.floor(math.sqrt(f) * CODE + 0.5))

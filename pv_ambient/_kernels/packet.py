@@ -1,4 +1,4 @@
-"""The CPU camera pass in ray packets: :data:`LANES` rays of a 4 × 4 pixel block marched in lockstep,
+"""The CPU camera pass in ray packets: :data:`LANES` rays of a 4 × 8 pixel block marched in lockstep,
 so that one sample of every ray is computed by SIMD instructions (docs/performance.rst, "CPU camera
 pass").
 
@@ -60,9 +60,12 @@ from .raycast import STREAM_JITTER, TILE, index_ray, lit_table_source, row_strid
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
-#: Rays per packet, a 4 × 4 pixel block: one AVX-512 register of float32 lanes.
-LANES = 16
-#: The packet's side in pixels.
+#: Rays per packet, a 4 × 8 pixel block: two AVX-512 registers of float32 lanes. Why two: each lane
+#: loop then holds two independent vectors of gathers and arithmetic, which the CPU overlaps where
+#: one vector's gathers wait on memory (docs/performance.rst, "CPU camera pass": 16 lanes were
+#: 9–17 % slower on the speed scene's camera moves).
+LANES = 32
+#: The packet's width in pixels; its height is ``LANES // SIDE``.
 SIDE = 4
 
 # float32 lane fields: the sample's index-space and world position, whether the lane samples this
@@ -436,7 +439,7 @@ def packet_driver(model):
     lights — which ambient scattering marches as, its ball term in the bake — or diffusion with
     baked lights, its field read beside the bake): rows
     [row0, row1) of an image of a LUT-mode medium, the pixels in :data:`.raycast.TILE`² tiles in
-    golden-ratio stride order (as the scalar driver), each tile in 4 × 4 packets; ``l32``/``l64``
+    golden-ratio stride order (as the scalar driver), each tile in 4 × 8 packets; ``l32``/``l64``
     hold :data:`N32`/:data:`N64` lane fields per thread. ``model`` is the closure's constant (one
     compiled driver per model, cached on disk apart); its pass 3, ``sample``, a global bound here
     (:func:`._jit.with_globals`), chosen in Python, so no other model's lane loops are left in the
@@ -460,7 +463,7 @@ def packet_driver(model):
             b32 = numba.get_thread_id() * (N32 * LANES)
             b64 = numba.get_thread_id() * (N64 * LANES)
             j_end = min(row0 + (a + 1) * TILE, row1)
-            for j0 in range(row0 + a * TILE, j_end, SIDE):
+            for j0 in range(row0 + a * TILE, j_end, LANES // SIDE):
                 for i0 in range(b * TILE, min((b + 1) * TILE, W), SIDE):
                     packet_begin(view, march, i0, j0, j_end, W, H, l32, b32, l64, b64)
                     while True:

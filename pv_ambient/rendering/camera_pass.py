@@ -186,14 +186,17 @@ def render_camera_pass(renderer, req, model, options, records=None) -> RenderRes
         args, bake = raycast_records(renderer, req, model, options, inputs)
         if records is not None:
             records.append(args)
+        scale = 1.0
         if draft_applies(req, args):
-            args, draft = draft_args(renderer, args), True
+            (args, scale), draft = draft_args(renderer, args), True
         t_prep = time.perf_counter() - t_start
         inner = req.progress_bar is True  # the kernel's own bar (image tiles)
         with stage_bar(req.progress_bar if not inner else False, f"ray cast ({model})"):
             used = backend.run_raycast(args, rad, alpha, backend=req.backend, asked=req.asked,
                                        device_cache=renderer.stages.device_for(req.backend), progress_bar=inner,
                                        name=f"ray cast ({model})")
+        if scale != 1.0:  # a lit draft's source is stored over a scale (rendering/draft.py)
+            rad *= np.float32(scale)
     else:
         rad[:] = req.background
     meta = _metadata(renderer, req, model, options, inputs, bake, used)

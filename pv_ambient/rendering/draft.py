@@ -1,14 +1,15 @@
 """Draft frames (``render(..., draft=True)``): what an interactive drag renders while the camera
 moves (docs/guide.rst, "In a plotter"; docs/performance.rst, "Draft frames").
 
-A draft frame ray-casts a level of the scene with every other data sample per axis: the scalar
-there for the opacity (through the same step-corrected table, so the transfer function's edges
-stay where the full frame has them) and, for a lit model, its source shaded once at those
-samples with the model's own sample function (:mod:`pv_ambient.stages.draft`). Every lit model's
-draft then costs one record read per corner, about an emission–absorption sample, and the level's
-corners stay in cache at a drag's longer step. It applies where the CPU's packet driver marches
-the full frame (a table transfer function; a lit model with baked in-scattering); elsewhere, and
-on the GPU, ``draft=True`` renders the full frame.
+A draft frame ray-casts a level of the scene with every other data sample per axis: at each, the
+scalar and the model's source (the colour for emission–absorption), shaded once per scene and
+light set with the model's own sample function and packed into two 32-bit words
+(:mod:`pv_ambient.stages.draft`). The opacity comes from the interpolated scalar through the same
+step-corrected table, so the transfer function's edges stay where the full frame has them. Every
+model's draft then costs two gathers per corner, less than an emission–absorption sample of the
+full frame, and the level's corners stay in cache at a drag's longer step. It applies where the
+CPU's packet driver marches the full frame (a table transfer function; a lit model with baked
+in-scattering); elsewhere, and on the GPU, ``draft=True`` renders the full frame.
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import records as K
-from .._kernels.models import DRAFT, EMISSION_ABSORPTION
-from ..stages.draft import FACTOR, draft_level, packets_apply, shade_record
+from .._kernels.models import DRAFT
+from ..stages.draft import FACTOR, code_majorant, pack_record, packets_apply, shade_record
 from .presets import MAJORANT_BLOCK
 
 #: The level's index space from the data's: level index = data index / FACTOR.
@@ -51,9 +52,10 @@ def _same(a, b) -> bool:
 
 
 def _record(renderer, args, shape):
-    """The lit model's draft record on the level, shaded from the frame's records ``args`` — kept
-    while its inputs (the arrays and values it was shaded from) are the same, so a drag shades it
-    once."""
+    """The model's packed draft record on the level of ``shape`` and what reads it (:func:`pack_record`:
+    ``(words, level, scale, lut)``, and the level's majorant grid), shaded from the frame's records
+    ``args`` — kept while its inputs (the arrays and values it was shaded from) are the same, so a
+    drag shades it once."""
     model, view, march, medium, lights, grid, ambient, diffusion = args
     # a point light's 1/d² clamped at one data spacing, whatever the frame's step: the level samples
     # every other data sample, and a drag that changes its step does not shade the record again
@@ -66,18 +68,21 @@ def _record(renderer, args, shape):
         return cache[key][1]
     rec = shade_record((model, view, march, medium, lights, grid, ambient, diffusion),
                        renderer.geometry.index_to_world, shape)
-    cache[key] = (inputs, rec)
-    return rec
+    words, level, scale, lut = pack_record(rec, medium.table.shape[0], medium.lut_lo, medium.lut_inv)
+    packed = (words, level, scale, lut, code_majorant(renderer.optics, level, lut, MAJORANT_BLOCK))
+    cache[key] = (inputs, packed)
+    return packed
 
 
 def draft_args(renderer, args):
-    """The ray cast's arguments for the draft of frame ``args`` (:func:`draft_applies` holds): the
-    level's view and medium; emission–absorption marches its scalar, a lit model the draft record."""
+    """The ray cast's arguments for the draft of frame ``args`` (:func:`draft_applies` holds), and
+    the factor its radiance takes afterwards: the level's view, the packed draft record and the
+    level's scalar codes as the medium. The record's source is stored over a scale: the ray cast
+    composites it over the background divided by the scale, and the picture is multiplied by it."""
     model, view, march, medium, lights, grid, ambient, diffusion = args
-    level, maj = renderer.stages.cache.get(("draft_level",), lambda: draft_level(renderer.optics, MAJORANT_BLOCK))
     view = view._replace(w2i=_SCALE @ view.w2i, lo=view.lo / FACTOR, hi=view.hi / FACTOR)
-    coarse = medium._replace(field=level, maj=maj)
-    if model == EMISSION_ABSORPTION:
-        return (model, view, march, coarse, lights, grid, ambient, diffusion)
-    rec = _record(renderer, args, level.shape)
-    return (DRAFT, view, march, coarse, lights, grid, ambient, diffusion._replace(field=rec))
+    shape = tuple(-(-(n - 1) // FACTOR) + 1 for n in medium.field.shape)
+    words, level, scale, lut, maj = _record(renderer, args, shape)
+    coarse = medium._replace(field=level, lut_lo=lut[0], lut_inv=lut[1], maj=maj)
+    march = march._replace(bg=np.asarray(march.bg, np.float64) / scale)
+    return (DRAFT, view, march, coarse, lights, grid, ambient, diffusion._replace(field=words)), scale

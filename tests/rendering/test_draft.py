@@ -1,7 +1,8 @@
 """Tests pv_ambient/rendering/draft.py and pv_ambient/_kernels/draft.py: draft frames
 (``render(..., draft=True)``, what an interactive drag renders; docs/performance.rst, "Draft
-frames"). Emission–absorption's draft is the full frame of the volume subsampled to every other
-sample (an independent render of that volume); a lit draft's record holds the full model's source
+frames"). Emission–absorption's draft of a one-colour transfer function is the full frame of the
+volume subsampled to every other sample (an independent render of that volume); a lit draft's
+record holds the full model's source
 at those samples (the per-pixel march's function, called there directly) and its picture stays
 near the full frame's; the record is shaded once per scene and light set; where a draft does not
 apply the full frame is rendered."""
@@ -44,24 +45,32 @@ def renderer(grid, lights=()):
 
 
 def test_emission_absorption_draft_is_the_full_frame_of_every_other_sample():
+    # one colour, so that the draft's colour shaded at the samples is the full frame's; its opacity
+    # reads the table at the interpolated scalar's 16-bit code: equal to a full render of the
+    # subsampled volume to the code's rounding (3·255/65535 of a table entry; 6e-5 here)
+    from matplotlib.colors import ListedColormap
+
     grid = blob_grid()
-    r = renderer(grid)
+    tf = pa.TransferFunction(cmap=ListedColormap(["#ff8040"]), clim=(0.0, 1.0), density_scale=6.0)
+    r = pa.Renderer(grid, transfer_function=tf, backend="cpu")
     step = r.default_step() * 2
     draft = r.render(camera=CAM, window_size=SIZE, step=step, draft=True)
     assert draft.metadata["draft"]
-    full = renderer(half_of(grid)).render(camera=CAM, window_size=SIZE, step=step)
+    full = pa.Renderer(half_of(grid), transfer_function=tf, backend="cpu").render(camera=CAM, window_size=SIZE,
+                                                                                    step=step)
     assert not full.metadata["draft"]
-    assert np.abs(draft.radiance - full.radiance).max() <= 2e-5 * full.radiance.max()
-    assert np.abs(draft.alpha - full.alpha).max() <= 2e-5
+    assert np.abs(draft.radiance - full.radiance).max() <= 3e-4 * full.radiance.max()
+    assert np.abs(draft.alpha - full.alpha).max() <= 3e-4
 
 
 def test_lit_draft_record_holds_the_models_source_at_every_other_sample():
-    # the record's source at level sample (i, j, k) is table_source of the full frame's records at
-    # data sample (2i, 2j, 2k) (called here point by point), its scalar the data's there
+    # the packed record at level sample (i, j, k), unpacked here in NumPy, holds table_source of the
+    # full frame's records at data sample (2i, 2j, 2k) (called here point by point) to its 16-bit
+    # square-root code's precision, and the scalar's table coordinate there to its code's
     import numba
 
-    from pv_ambient._kernels.raycast import table_source
     from pv_ambient._kernels.medium import step_lookup
+    from pv_ambient._kernels.raycast import table_source
     from pv_ambient.rendering.camera_pass import render_camera_pass
     from pv_ambient.rendering.draft import draft_args
 
@@ -77,18 +86,26 @@ def test_lit_draft_record_holds_the_models_source_at_every_other_sample():
         req = r.request(camera=CAM, window_size=SIZE, model=model, draft=True)
         render_camera_pass(r, req, model, {}, records=records)
         args = records[0]
-        _, _, _, medium, lights, _, _, diffusion = draft_args(r, args)
-        rec = diffusion.field
-        assert rec.shape == (9, 9, 9, 4)
+        (_, _, march, medium, _, _, _, diffusion), scale = draft_args(r, args)
+        words = diffusion.field
+        assert words.shape == (9, 9, 9, 2) and words.dtype == np.uint32 and medium.field.shape == (9, 9, 9)
+        code = (words[..., 0] & 0xFFFF).astype(np.float64)
+        assert np.array_equal(medium.field, code.astype(np.float32))  # the scalar pass reads the same codes
+        src = scale * np.stack([(words[..., 0] >> 16), words[..., 1] & 0xFFFF, words[..., 1] >> 16], -1).astype(
+            np.float64) ** 2
+        top = src.max()
         lights = args[4]._replace(d2min=float(np.min(r.geometry.spacing)) ** 2)
-        rng = np.random.default_rng(1)
-        for i, j, k in rng.integers(0, 9, size=(40, 3)):
+        m = args[2].opacity.shape[0] - 1
+        full = args[3]
+        for i, j, k in np.random.default_rng(1).integers(0, 9, size=(40, 3)):
             x, y, z = 2.0 * i, 2.0 * j, 2.0 * k
             w = r.geometry.index_to_world @ np.array([x, y, z, 1.0])
-            expect = source_at(args[0], args[2], args[3], lights, *args[5:], x, y, z, w)
-            assert rec[i, j, k, 0] == args[3].field[2 * i, 2 * j, 2 * k]
-            assert np.allclose(rec[i, j, k, 1:], expect, rtol=1e-6, atol=1e-7 * max(1e-30, np.abs(rec[..., 1:]).max()))
-        assert medium.field.shape == (9, 9, 9)
+            expect = np.array(source_at(args[0], args[2], full, lights, *args[5:], x, y, z, w))
+            tol = 2.0 * np.sqrt(expect * top) / 65535 + 1e-6 * top
+            assert np.all(np.abs(src[i, j, k] - expect) <= tol)
+            u = (full.field[2 * i, 2 * j, 2 * k] - full.lut_lo) * full.lut_inv
+            u_code = (code[i, j, k] - medium.lut_lo) * medium.lut_inv
+            assert abs(u_code - np.clip(u, -m, 2 * m)) <= 3 * m / 65535
 
 
 def block_error(res, ref):
@@ -101,7 +118,7 @@ def block_error(res, ref):
 def test_lit_draft_stays_near_the_full_frame(model):
     # a directional light (no 1/d² peak to round off), a shell 2.4 samples thick: the level halves
     # it, which moves emission–absorption's draft by some per cent; the lit draft's interpolated
-    # lighting adds at most 1.5 per cent to that (4.1, 4.0, 3.6 % against 3.3 % here)
+    # lighting adds at most 1.5 per cent to that (4.1, 4.0, 3.6 % against 3.0 % here)
     grid = blob_grid(n=33)
     r = renderer(grid, [pa.DirectionalLight((0.3, 0.2, -1.0), irradiance=2.0)])
     step = 2 * r.default_step()
