@@ -13,7 +13,10 @@ takes four. The sample's opacity still comes from the interpolated scalar throug
 step-corrected table (:func:`draft_sample`), so opacity and the transfer function's edges are the
 full frame's; the source is interpolated between the shaded samples (pre-shaded, as a
 pre-classified colour), which blurs the lighting over two data samples and rounds off a point
-light's ``1/d²`` peak. The packet driver runs it as model :data:`.models.DRAFT`
+light's ``1/d²`` peak — but for one point light, the *reference*: the record holds the source
+times ``max(d², d2min)`` to it, as a bake's point-light slot does, and the sample divides by its own
+(``ref``, a :class:`.records.Lights` whose light 0 is the reference; with no point light a point
+whose ``d2min`` exceeds every distance in the box, a constant weight). The packet driver runs it as model :data:`.models.DRAFT`
 (:func:`.packet.lanes_sample_draft`); its scalar pass reads the source with :func:`draft_source`.
 """
 
@@ -25,6 +28,7 @@ import numpy as np
 
 from ._jit import driver, prange, scalar
 from .medium import clamp32, corners32, min_index, step_column, step_lookup
+from .baked import point_weight
 from .raycast import table_source
 
 #: The largest 16-bit code of a packed record's values (:func:`pv_ambient.stages.draft.pack_record`).
@@ -79,11 +83,12 @@ def draft_sample(rec, stab, lut_lo, lut_inv, x, y, z):
 
 
 @scalar(force_inline=True)
-def draft_source(rec, x, y, z):
+def draft_source(rec, ref, x, y, z, wx, wy, wz):
     """The source rgb (over the record's scale) of packed draft record ``rec`` at level index-space
-    point (x, y, z)."""
+    point (x, y, z), world point w: the interpolated record's over the weight (:func:`draft_weight`)."""
     _, r, g, b = draft_values(rec, x, y, z)
-    return r, g, b
+    w = point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
+    return r * w, g * w, b * w
 
 
 @scalar(inline=True)
@@ -94,11 +99,13 @@ def node_of(i, n, factor):
 
 
 @driver
-def shade_nodes(model, march, medium, lights, grid, ambient, diffusion, i2w, factor, out):
+def shade_nodes(model, march, medium, lights, grid, ambient, diffusion, i2w, factor, ref, out):
     """Shade the draft record ``out`` (float32 ``(m0, m1, m2, 4)``) of a level of every ``factor``-th
-    data sample: at each level sample's data sample (:func:`node_of`) its scalar and ray-cast ``model``'s source there (:func:`.raycast.table_source`
-    with the frame's records, a LUT-mode ``medium``); ``i2w`` the data's index → world affine map
-    (4 × 4), for the lights' distances."""
+    data sample: at each level sample's data sample (:func:`node_of`) its scalar and ray-cast
+    ``model``'s source there (:func:`.raycast.table_source` with the frame's records, a LUT-mode
+    ``medium``) times ``max(d², d2min)`` to the reference point of ``ref`` (a :class:`.records.Lights`
+    whose light 0 is it; :func:`draft_weight`); ``i2w`` the data's index → world affine map (4 × 4),
+    for the lights' distances."""
     field, stab = medium.field, march.opacity
     nx, ny, nz = field.shape
     for i in prange(out.shape[0]):
@@ -115,10 +122,11 @@ def shade_nodes(model, march, medium, lights, grid, ambient, diffusion, i2w, fac
                 wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
                 q0, fq = step_lookup(field, stab, medium.lut_lo, medium.lut_inv, x, y, z)
                 cr, cg, cb = table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid, ambient, diffusion)
+                w = np.float32(1.0) / point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
                 out[i, j, k, 0] = field[a, b, c]
-                out[i, j, k, 1] = cr
-                out[i, j, k, 2] = cg
-                out[i, j, k, 3] = cb
+                out[i, j, k, 1] = cr * w
+                out[i, j, k, 2] = cg * w
+                out[i, j, k, 3] = cb * w
 
 
 @driver

@@ -234,7 +234,7 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
             a = step_opacity(march.opacity, q0, fq, 0.0, te - t)
             if a > 0.0:
                 if model == DRAFT:
-                    cr, cg, cb = draft_source(diffusion.field, x, y, z)
+                    cr, cg, cb = draft_source(diffusion.field, lights, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz)
                 else:
                     cr, cg, cb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
                                               oz + tm * dz, lights, grid, ambient, diffusion)
@@ -278,15 +278,18 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, gr
 @scalar(inline=True)
 def lanes_sample_draft(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
     """Pass 3 of a draft frame (vectorised): every lane samples its full segment of the draft record
-    ``dfield`` with :func:`.draft.draft_sample` (its opacity, zero for an inactive lane, and source),
-    then :func:`lanes_composite` (``field``, ``lights`` and ``grid`` unused)."""
+    ``dfield`` with :func:`.draft.draft_sample` (its opacity, zero for an inactive lane, and source
+    over the weight of the reference point, light 0 of ``lights``), then :func:`lanes_composite`
+    (``field`` and ``grid`` unused)."""
     for k in range(LANES):
         a, cr, cg, cb = draft_sample(dfield, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
                                      l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
+        w = point_weight(lights, 0, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
+                         l32[np.uint64(b32 + WZ * LANES + k)])
         l32[np.uint64(b32 + A * LANES + k)] = a * l32[np.uint64(b32 + ACT * LANES + k)]
-        l32[np.uint64(b32 + SR * LANES + k)] = cr
-        l32[np.uint64(b32 + SG * LANES + k)] = cg
-        l32[np.uint64(b32 + SB * LANES + k)] = cb
+        l32[np.uint64(b32 + SR * LANES + k)] = cr * w
+        l32[np.uint64(b32 + SG * LANES + k)] = cg * w
+        l32[np.uint64(b32 + SB * LANES + k)] = cb * w
     lanes_composite(l32, b32, l64, b64)
 
 
@@ -451,7 +454,7 @@ def packet_driver(model):
         step, ert = march.step, march.ert
         field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
         dfield = diffusion.field
-        lit = model == SINGLE_SCATTERING or model == DIFFUSION  # pass 3 reads world positions (1/d²)
+        lit = model == SINGLE_SCATTERING or model == DIFFUSION or model == DRAFT  # pass 3 reads world positions (1/d²)
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
         n = n_rows * n_cols

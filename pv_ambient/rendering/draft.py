@@ -51,6 +51,22 @@ def _same(a, b) -> bool:
     return a == b
 
 
+def reference(lights, geometry):
+    """The draft's reference point (:mod:`pv_ambient._kernels.draft`) as a :class:`Lights` record
+    whose light 0 it is: the first point light of ``lights`` (the frame's records) with a
+    ``d2min`` of one data spacing squared, or, with no point light, the box's centre with a
+    ``d2min`` larger than any distance in the box squared (a constant weight)."""
+    kind, vec = np.asarray(lights.kind), np.asarray(lights.vec, np.float64)
+    points = np.flatnonzero(kind == 0)
+    if points.size:
+        pos, d2min = vec[points[0]], float(np.min(geometry.spacing)) ** 2
+    else:
+        corners = geometry.corners
+        pos, d2min = corners.mean(axis=0), 4.0 * geometry.diagonal ** 2 + 1.0
+    return lights._replace(kind=np.zeros(1, kind.dtype), vec=np.asarray(pos, np.float64).reshape(1, 3),
+                           power=np.zeros((1, 3), np.asarray(lights.power).dtype), d2min=d2min)
+
+
 def _record(renderer, args, shape):
     """The model's packed draft record on the level of ``shape`` and what reads it (:func:`pack_record`:
     ``(words, level, scale, lut)``, and the level's majorant grid), shaded from the frame's records
@@ -67,7 +83,7 @@ def _record(renderer, args, shape):
     if key in cache and _same(cache[key][0], inputs):
         return cache[key][1]
     rec = shade_record((model, view, march, medium, lights, grid, ambient, diffusion),
-                       renderer.geometry.index_to_world, shape)
+                       renderer.geometry.index_to_world, shape, reference(lights, renderer.geometry))
     words, level, scale, lut = pack_record(rec, medium.table.shape[0], medium.lut_lo, medium.lut_inv)
     packed = (words, level, scale, lut, code_majorant(renderer.optics, level, lut, MAJORANT_BLOCK))
     cache[key] = (inputs, packed)
@@ -85,4 +101,4 @@ def draft_args(renderer, args):
     words, level, scale, lut, maj = _record(renderer, args, shape)
     coarse = medium._replace(field=level, lut_lo=lut[0], lut_inv=lut[1], maj=maj)
     march = march._replace(bg=np.asarray(march.bg, np.float64) / scale)
-    return (DRAFT, view, march, coarse, lights, grid, ambient, diffusion._replace(field=words)), scale
+    return (DRAFT, view, march, coarse, reference(lights, renderer.geometry), grid, ambient, diffusion._replace(field=words)), scale

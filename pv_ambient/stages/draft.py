@@ -51,12 +51,13 @@ def code_majorant(optics, level, lut, block):
     return maj
 
 
-def shade_record(args, index_to_world, shape):
+def shade_record(args, index_to_world, shape, ref):
     """The draft record (float32 ``shape + (4,)``: scalar, source rgb) of a frame's ray-cast
     arguments ``args`` (the model id and its records, the data's medium), shaded at the level
-    samples' data samples (:func:`pv_ambient._kernels.draft.shade_nodes`)."""
+    samples' data samples (:func:`pv_ambient._kernels.draft.shade_nodes`), times the weight of
+    reference ``ref`` (:func:`pv_ambient.rendering.draft.reference`)."""
     from .._kernels.draft import shade_nodes
 
     rec = np.empty(tuple(shape) + (4,), np.float32)
-    shade_nodes(*args[:1], *args[2:], np.asarray(index_to_world, np.float64), FACTOR, rec)
+    shade_nodes(*args[:1], *args[2:], np.asarray(index_to_world, np.float64), FACTOR, ref, rec)
     return rec

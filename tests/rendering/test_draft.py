@@ -65,8 +65,9 @@ def test_emission_absorption_draft_is_the_full_frame_of_every_other_sample():
 
 def test_lit_draft_record_holds_the_models_source_at_every_other_sample():
     # the packed record at level sample (i, j, k), unpacked here in NumPy, holds table_source of the
-    # full frame's records at data sample (2i, 2j, 2k) (called here point by point) to its 16-bit
-    # square-root code's precision, and the scalar's table coordinate there to its code's
+    # full frame's records at data sample (2i, 2j, 2k) (called here point by point) times
+    # max(d², d2min) to the point light to its 16-bit square-root code's precision, and the scalar's
+    # table coordinate there to its code's
     import numba
 
     from pv_ambient._kernels.medium import step_lookup
@@ -86,7 +87,8 @@ def test_lit_draft_record_holds_the_models_source_at_every_other_sample():
         req = r.request(camera=CAM, window_size=SIZE, model=model, draft=True)
         render_camera_pass(r, req, model, {}, records=records)
         args = records[0]
-        (_, _, march, medium, _, _, _, diffusion), scale = draft_args(r, args)
+        (_, _, march, medium, ref, _, _, diffusion), scale = draft_args(r, args)
+        assert np.array_equal(ref.vec[0], args[4].vec[0])  # the point light is the reference
         words = diffusion.field
         assert words.shape == (9, 9, 9, 2) and words.dtype == np.uint32 and medium.field.shape == (9, 9, 9)
         code = (words[..., 0] & 0xFFFF).astype(np.float64)
@@ -100,7 +102,8 @@ def test_lit_draft_record_holds_the_models_source_at_every_other_sample():
         for i, j, k in np.random.default_rng(1).integers(0, 9, size=(40, 3)):
             x, y, z = 2.0 * i, 2.0 * j, 2.0 * k
             w = r.geometry.index_to_world @ np.array([x, y, z, 1.0])
-            expect = np.array(source_at(args[0], args[2], full, lights, *args[5:], x, y, z, w))
+            weight = max(float(np.sum((w[:3] - ref.vec[0]) ** 2)), ref.d2min)  # the record holds source × d²
+            expect = weight * np.array(source_at(args[0], args[2], full, lights, *args[5:], x, y, z, w))
             tol = 2.0 * np.sqrt(expect * top) / 65535 + 1e-6 * top
             assert np.all(np.abs(src[i, j, k] - expect) <= tol)
             u = (full.field[2 * i, 2 * j, 2 * k] - full.lut_lo) * full.lut_inv
