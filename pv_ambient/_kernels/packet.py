@@ -15,7 +15,8 @@ termination and jitter — split in three passes per step of the packet:
    non-empty, it walks on to the end of the run of non-empty blocks (:func:`.majorant.run_end`):
    the per-pixel march's lookups inside such a run change nothing but its next boundary, so the
    samples are the same and a lane comes back here only at the run's end;
-3. :func:`lanes_sample_ea`, or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
+3. :func:`lanes_sample_ea`, :func:`lanes_sample_draft` (a draft frame, :mod:`.draft`), or
+   :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
    :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
    functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
    :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms,
@@ -166,7 +167,8 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
     does — block lookups and skips, partial segments sampled with ``exp`` of the interpolated σt,
     early termination — until it has a full segment to sample (its position written, active) or
     is done. ``model``: emission–absorption, or single scattering or diffusion with baked lights (the
-    lit sample of :func:`.raycast.march_pixel`); ``dist``: the majorant's :func:`.majorant.empty_distance`.
+    lit sample of :func:`.raycast.march_pixel`), or a draft frame (:func:`.draft.draft_source`);
+    ``dist``: the majorant's :func:`.majorant.empty_distance`.
     Returns the number of active lanes."""
     step, ert = march.step, march.ert
     maj, block = medium.maj, medium.block
