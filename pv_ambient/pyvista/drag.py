@@ -10,9 +10,11 @@ from __future__ import annotations
 MOVING_RATE = 1.0
 
 #: A drag frame slower than this fraction of the frame time the render window asks for doubles its
-#: ray step (up to ``interactive_step``); one faster than ``STEP_SHRINK`` of it halves the step.
+#: ray step (up to ``interactive_step``); one whose predicted time at half the step — the frame
+#: plus its ray cast once more, the ray cast's samples doubling — is below ``2·STEP_SHRINK`` of it
+#: halves the step (a frame whose time is all ray cast: below ``STEP_SHRINK`` of it).
 STEP_GROW = 1.0
-STEP_SHRINK = 0.35
+STEP_SHRINK = 0.45
 
 
 def first_factor(rest_seconds, resolution, budget, cap):
@@ -36,20 +38,25 @@ def first_factor(rest_seconds, resolution, budget, cap):
     return k
 
 
-def adapted_factor(factor, seconds, budget, cap):
-    """The next drag frame's ray step after one at ``factor`` resting steps took ``seconds``:
-    doubled while frames are slower than ``budget`` (up to ``cap``), halved when they take less than
-    ``STEP_SHRINK`` of it.
+def adapted_factor(factor, seconds, budget, cap, cast=None):
+    """The next drag frame's ray step after one at ``factor`` resting steps took ``seconds``, of
+    which ``cast`` the ray cast (all of it when None): doubled while frames are slower than
+    ``budget`` (up to ``cap``), halved when the frame at half the step, ``seconds + cast``, would
+    take less than ``2·STEP_SHRINK`` of it. Why the ray cast apart: the rest of a frame (the
+    texture, VTK's own render) does not grow with the samples, and a draft frame's ray cast is
+    short next to it.
 
     Examples
     --------
     >>> from pv_ambient.pyvista.drag import adapted_factor
     >>> adapted_factor(2, 0.2, 0.066, 16), adapted_factor(2, 0.01, 0.066, 16), adapted_factor(16, 0.2, 0.066, 16)
     (4, 1, 16)
+    >>> adapted_factor(16, 0.035, 0.066, 16), adapted_factor(16, 0.035, 0.066, 16, cast=0.019)
+    (16, 8)
     """
     if seconds > STEP_GROW * budget and 2 * factor <= cap:
         return 2 * factor
-    if seconds < STEP_SHRINK * budget and factor > 1:
+    if seconds + (seconds if cast is None else cast) < 2.0 * STEP_SHRINK * budget and factor > 1:
         return factor // 2
     return factor
 
@@ -82,10 +89,11 @@ class DragStep:
             self.step_factor = first_factor(self.rest_seconds, self.interactive_resolution, self._budget(),
                                             self.interactive_step)
 
-    def _adapt_step(self, seconds):
-        """After a drag frame that took ``seconds``: the next frame's step (:func:`adapted_factor`)."""
+    def _adapt_step(self, seconds, cast=None):
+        """After a drag frame that took ``seconds``, ``cast`` of it the ray cast: the next frame's
+        step (:func:`adapted_factor`)."""
         if self._step_adapts:
-            self.step_factor = adapted_factor(self.step_factor, seconds, self._budget(), self.interactive_step)
+            self.step_factor = adapted_factor(self.step_factor, seconds, self._budget(), self.interactive_step, cast)
 
     def _budget(self):
         return 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()

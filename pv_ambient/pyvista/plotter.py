@@ -198,7 +198,7 @@ class AmbientVolume(DragStep):
         self._key = self._state(*self._view())  # after the plane set the camera (VTK normalises it)
         seconds = time.perf_counter() - t
         if self.moving:
-            self._adapt_step(seconds)
+            self._adapt_step(seconds, self.volume_result.metadata.get("time_render"))
         else:  # the ray cast alone: the first picture's time also holds the per-scene stages
             self.rest_seconds = self.volume_result.metadata.get("time_render", seconds)
         return True
