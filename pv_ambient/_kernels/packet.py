@@ -236,7 +236,8 @@ def lanes_fix(model, march, medium, lights, grid, ambient, diffusion, l32, b32, 
             a = step_opacity(march.opacity, q0, fq, 0.0, te - t)
             if a > 0.0:
                 if model == DRAFT:
-                    cr, cg, cb = draft_source(diffusion.field, lights, x, y, z, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+                    cr, cg, cb = draft_source(diffusion.field, lights, x, y, z, ox + tm * dx, oy + tm * dy,
+                                              oz + tm * dz)
                 else:
                     cr, cg, cb = table_source(model, march.opacity, q0, fq, x, y, z, ox + tm * dx, oy + tm * dy,
                                               oz + tm * dz, lights, grid, ambient, diffusion)

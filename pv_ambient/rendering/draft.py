@@ -101,4 +101,5 @@ def draft_args(renderer, args):
     words, level, scale, lut, maj = _record(renderer, args, shape)
     coarse = medium._replace(field=level, lut_lo=lut[0], lut_inv=lut[1], maj=maj)
     march = march._replace(bg=np.asarray(march.bg, np.float64) / scale)
-    return (DRAFT, view, march, coarse, reference(lights, renderer.geometry), grid, ambient, diffusion._replace(field=words)), scale
+    ref = reference(lights, renderer.geometry)
+    return (DRAFT, view, march, coarse, ref, grid, ambient, diffusion._replace(field=words)), scale

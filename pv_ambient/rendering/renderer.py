@@ -306,9 +306,9 @@ class Renderer:
             the scene holds on the GPU.
         draft : bool, default: False
             A quick preview for interaction (what ``add_ambient_volume(..., interactive=True)``
-            renders while the camera moves): the volume and, for a lit model, its lighting
-            sampled on every other data sample per axis, the lighting shaded there once and
-            interpolated between (docs/guide.rst, "In a plotter"). Ray-cast models of a
+            renders while the camera moves): the volume, its colours and a lit model's lighting
+            on every other data sample per axis, shaded there once and interpolated between
+            (docs/guide.rst, "In a plotter"). Ray-cast models of a
             table transfer function on the CPU (a lit model with baked in-scattering); elsewhere
             the full frame. ``metadata["draft"]`` says which was rendered.
         **model_options

@@ -28,7 +28,8 @@ def pack_record(rec, table_size, lut_lo, lut_inv):
     each channel's source as the square root of its fraction of the largest (precision 1.5e-5 of
     the largest at the top, 0.1 % of a value a thousandth of it). Returns ``(words, level, scale,
     lut)``: uint32 ``(m0, m1, m2, 2)``; the scalar codes as a float32 field (the scalar pass's
-    partial segments) with ``lut = (lut_lo, lut_inv)`` mapping a code to the table; the source is the codes' squares times ``scale``."""
+    partial segments) with ``lut = (lut_lo, lut_inv)`` mapping a code to the table; the source is
+    the codes' squares times ``scale``."""
     from .._kernels.draft import CODE, pack_nodes
 
     m = float(table_size - 1)
