@@ -14,6 +14,8 @@ in-scattering); elsewhere, and on the GPU, ``draft=True`` renders the full frame
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from .._kernels import records as K
@@ -25,7 +27,7 @@ from .presets import MAJORANT_BLOCK
 _SCALE = np.diag([1.0 / FACTOR, 1.0 / FACTOR, 1.0 / FACTOR, 1.0])
 
 #: Arrays up to this many elements (the lights' positions and powers, rebuilt every frame) are
-#: compared by value; larger ones (grids, tables: cached stages) by identity.
+#: compared by value; larger ones (grids, tables: cached stages) by identity, through weak references.
 _BY_VALUE = 256
 
 
@@ -38,17 +40,29 @@ def draft_applies(req, args) -> bool:
             and packets_apply(model, medium, grid))
 
 
-def _same(a, b) -> bool:
-    """Whether two input tuples hold the same inputs."""
-    if isinstance(a, (tuple, list)):
-        return isinstance(b, (tuple, list)) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
-        if a is b:
-            return True
-        return a.size <= _BY_VALUE and a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+def _held(inputs):
+    """``inputs`` as the record's cache entry keeps them: a large array by a weak reference (the
+    entry must not keep a replaced bake or field alive), a small one (the lights' positions and
+    powers, rebuilt every frame) as it is."""
+    if isinstance(inputs, (tuple, list)):
+        return tuple(_held(x) for x in inputs)
+    if isinstance(inputs, np.ndarray) and inputs.size > _BY_VALUE:
+        return weakref.ref(inputs)
+    return inputs
+
+
+def _same(held, b) -> bool:
+    """Whether inputs ``b`` are those kept as ``held`` (:func:`_held`): large arrays the same
+    objects, small ones equal, other values equal."""
+    if isinstance(held, tuple):
+        return isinstance(b, (tuple, list)) and len(held) == len(b) and all(_same(x, y) for x, y in zip(held, b))
+    if isinstance(held, weakref.ref):
+        return held() is b
+    if isinstance(held, np.ndarray) and isinstance(b, np.ndarray):
+        return held.shape == b.shape and held.dtype == b.dtype and bool(np.array_equal(held, b))
+    if isinstance(held, np.ndarray) or isinstance(b, np.ndarray):
         return False
-    return a == b
+    return held == b
 
 
 def reference(lights, geometry):
@@ -86,7 +100,7 @@ def _record(renderer, args, shape):
                        renderer.geometry.index_to_world, shape, reference(lights, renderer.geometry))
     words, level, scale, lut = pack_record(rec, medium.table.shape[0], medium.lut_lo, medium.lut_inv)
     packed = (words, level, scale, lut, code_majorant(renderer.optics, level, lut, MAJORANT_BLOCK))
-    cache[key] = (inputs, packed)
+    cache[key] = (_held(inputs), packed)
     return packed
 
 

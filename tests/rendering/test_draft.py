@@ -147,6 +147,23 @@ def test_draft_record_is_shaded_once_per_scene_and_light_set():
     assert res.metadata["draft"] and r.cache[("draft_record",)][1] is not rec
 
 
+def test_draft_record_keeps_no_replaced_bake_alive():
+    # the record's cache entry refers to the bake it was shaded from weakly: once the stage cache
+    # drops that bake (a relight), the entry no longer holds it
+    import gc
+    import weakref
+
+    r = renderer(blob_grid(n=17), [pa.PointLight((0.2, -1.5, 0.6), intensity=3.0)])
+    r.render(camera=CAM, window_size=SIZE, model="single_scattering", draft=True)
+    (_, (inc, _)), = r.cache.items("incident")
+    gone = weakref.ref(inc)
+    del inc
+    r.cache.clear("incident")
+    gc.collect()
+    assert gone() is None
+    r.render(camera=CAM, window_size=SIZE, model="single_scattering", draft=True)  # shaded again, from the new bake
+
+
 def test_draft_renders_the_full_frame_where_it_does_not_apply():
     grid = blob_grid(n=17)
     r = renderer(grid, [pa.PointLight((0.2, -1.5, 0.6), intensity=3.0)])
