@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from ._jit import driver, prange, scalar
-from .medium import clamp32, corners32, min_index, step_column, step_lookup
+from .medium import corners32, step_column, step_lookup, table_coords
 from .baked import point_weight
 from .raycast import table_source
 
@@ -74,19 +74,18 @@ def draft_values(rec, x, y, z):
 def draft_sample(rec, stab, lut_lo, lut_inv, x, y, z):
     """(opacity of one full step, source rgb over the record's scale) at level index-space point
     (x, y, z) of packed draft record ``rec``: the scalar's code interpolated and looked up in the
-    step-corrected table ``stab`` as :func:`.medium.step_lookup` does (``lut_lo``, ``lut_inv``: the
-    code's mapping to the table), the source interpolated (float32)."""
+    step-corrected table ``stab`` as :func:`.medium.step_lookup` does (:func:`.medium.table_coords`;
+    ``lut_lo``, ``lut_inv``: the code's mapping to the table), the source interpolated (float32)."""
     s, r, g, b = draft_values(rec, x, y, z)
-    nt = stab.shape[0]
-    u = clamp32((s - np.float32(lut_lo)) * np.float32(lut_inv), np.float32(nt - 1))
-    q0 = min_index(np.uint64(np.uint32(u)), np.uint64(nt - 2))
-    return step_column(stab, q0, u - np.float32(q0), 0), r, g, b
+    q0, f = table_coords(s, stab, lut_lo, lut_inv)
+    return step_column(stab, q0, f, 0), r, g, b
 
 
 @scalar(force_inline=True)
 def draft_source(rec, ref, x, y, z, wx, wy, wz):
     """The source rgb (over the record's scale) of packed draft record ``rec`` at level index-space
-    point (x, y, z), world point w: the interpolated record's over the weight (:func:`draft_weight`)."""
+    point (x, y, z), world point w: the interpolated record's times ``1/max(d², d2min)`` to the
+    reference point, light 0 of ``ref`` (this module's docstring)."""
     _, r, g, b = draft_values(rec, x, y, z)
     w = point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
     return r * w, g * w, b * w
@@ -105,8 +104,8 @@ def shade_nodes(model, march, medium, lights, grid, ambient, diffusion, i2w, fac
     data sample: at each level sample's data sample (:func:`node_of`) its scalar and ray-cast
     ``model``'s source there (:func:`.raycast.table_source` with the frame's records, a LUT-mode
     ``medium``) times ``max(d², d2min)`` to the reference point of ``ref`` (a :class:`.records.Lights`
-    whose light 0 is it; :func:`draft_weight`); ``i2w`` the data's index → world affine map (4 × 4),
-    for the lights' distances."""
+    whose light 0 is it; :func:`pv_ambient.rendering.draft.reference`); ``i2w`` the data's index →
+    world affine map (4 × 4), for the lights' distances."""
     field, stab = medium.field, march.opacity
     nx, ny, nz = field.shape
     for i in prange(out.shape[0]):

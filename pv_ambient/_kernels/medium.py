@@ -141,14 +141,21 @@ def corner32(g, i0, i1, fx, j0, j1, fy, k0, k1, fz, c):
 
 
 @scalar(force_inline=True)
-def step_lookup(field, stab, lut_lo, lut_inv, x, y, z):
-    """``(q0, f)``: the step-corrected table's entry below the scalar at index-space point (x, y, z)
-    of a LUT-mode medium, and the fraction towards the next (float32; :func:`trilinear32`)."""
+def table_coords(s, stab, lut_lo, lut_inv):
+    """``(q0, f)``: the step-corrected table's entry below scalar ``s`` (float32) and the fraction
+    towards the next, the table coordinate clamped to the table."""
     nt = stab.shape[0]
-    s = trilinear32(field, x, y, z)
     u = clamp32((s - np.float32(lut_lo)) * np.float32(lut_inv), np.float32(nt - 1))
     q0 = min_index(np.uint64(np.uint32(u)), np.uint64(nt - 2))
     return q0, u - np.float32(q0)
+
+
+@scalar(force_inline=True)
+def step_lookup(field, stab, lut_lo, lut_inv, x, y, z):
+    """``(q0, f)``: the step-corrected table's entry below the scalar at index-space point (x, y, z)
+    of a LUT-mode medium, and the fraction towards the next (float32; :func:`trilinear32`,
+    :func:`table_coords`)."""
+    return table_coords(trilinear32(field, x, y, z), stab, lut_lo, lut_inv)
 
 
 @scalar(inline=True)
