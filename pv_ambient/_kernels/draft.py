@@ -8,8 +8,8 @@ every other data sample per axis (:data:`pv_ambient.stages.draft.FACTOR`; a leve
 the samples, so the corners a ray touches stay in cache at a drag's longer step) the scalar and
 the model's source rgb, shaded once by :func:`shade_nodes` with the model's own per-sample function
 (:func:`.raycast.table_source`) at those samples and packed into two 32-bit words of 16-bit codes
-(:func:`pv_ambient.stages.draft.pack_record`): two gathers per corner where the unpacked record
-takes four. The sample's opacity still comes from the interpolated scalar through the
+(:func:`pv_ambient.stages.draft.pack_record`, the codes of :mod:`.record`): two gathers per
+corner where the unpacked record takes four. The sample's opacity still comes from the interpolated scalar through the
 step-corrected table (:func:`draft_sample`), so opacity and the transfer function's edges are the
 full frame's; the source is interpolated between the shaded samples (pre-shaded, as a
 pre-classified colour), which blurs the lighting over two data samples and rounds off a point
@@ -23,52 +23,13 @@ source with :func:`draft_source`.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ._jit import driver, prange, scalar
-from .medium import corners32, step_column, step_lookup, table_coords
+from .medium import step_column, step_lookup, table_coords
 from .baked import point_weight
 from .raycast import table_source
-
-#: The largest 16-bit code of a packed record's values (:func:`pv_ambient.stages.draft.pack_record`).
-CODE = 65535
-
-
-@scalar(force_inline=True)
-def unpack(rec, i, j, k):
-    """The four values of packed record ``rec`` (uint32 ``(m0, m1, m2, 2)``) at level sample
-    (i, j, k): the scalar's 16-bit code and the squares of the source's three square-root codes
-    (float32). ``np.uint32`` of each word also lets a float32 array type-check here (a dead branch
-    of the other models' scalar pass)."""
-    w0 = np.uint32(rec[i, j, k, np.uint32(0)])
-    w1 = np.uint32(rec[i, j, k, np.uint32(1)])
-    low = np.uint32(0xFFFF)
-    r = np.float32(w0 >> np.uint32(16))
-    g = np.float32(w1 & low)
-    b = np.float32(w1 >> np.uint32(16))
-    return np.float32(w0 & low), r * r, g * g, b * b
-
-
-@scalar(force_inline=True)
-def lerp4(a, b, f):
-    """``a + f·(b − a)`` of two 4-tuples."""
-    return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]), a[3] + f * (b[3] - a[3]))
-
-
-@scalar(force_inline=True)
-def draft_values(rec, x, y, z):
-    """The packed record's four values (:func:`unpack`) interpolated trilinearly at level index-space
-    point (x, y, z) (float32, unsigned indices: the packet driver's lane loop vectorises it; two
-    gathers per corner)."""
-    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
-    c00 = lerp4(unpack(rec, i0, j0, k0), unpack(rec, i1, j0, k0), fx)
-    c10 = lerp4(unpack(rec, i0, j1, k0), unpack(rec, i1, j1, k0), fx)
-    c01 = lerp4(unpack(rec, i0, j0, k1), unpack(rec, i1, j0, k1), fx)
-    c11 = lerp4(unpack(rec, i0, j1, k1), unpack(rec, i1, j1, k1), fx)
-    return lerp4(lerp4(c00, c10, fy), lerp4(c01, c11, fy), fz)
-
+from .record import record_values
 
 @scalar(force_inline=True)
 def draft_sample(rec, stab, lut_lo, lut_inv, x, y, z):
@@ -76,7 +37,7 @@ def draft_sample(rec, stab, lut_lo, lut_inv, x, y, z):
     (x, y, z) of packed draft record ``rec``: the scalar's code interpolated and looked up in the
     step-corrected table ``stab`` as :func:`.medium.step_lookup` does (:func:`.medium.table_coords`;
     ``lut_lo``, ``lut_inv``: the code's mapping to the table), the source interpolated (float32)."""
-    s, r, g, b = draft_values(rec, x, y, z)
+    s, r, g, b = record_values(rec, x, y, z)
     q0, f = table_coords(s, stab, lut_lo, lut_inv)
     return step_column(stab, q0, f, 0), r, g, b
 
@@ -86,7 +47,7 @@ def draft_source(rec, ref, x, y, z, wx, wy, wz):
     """The source rgb (over the record's scale) of packed draft record ``rec`` at level index-space
     point (x, y, z), world point w: the interpolated record's times ``1/max(d², d2min)`` to the
     reference point, light 0 of ``ref`` (this module's docstring)."""
-    _, r, g, b = draft_values(rec, x, y, z)
+    _, r, g, b = record_values(rec, x, y, z)
     w = point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
     return r * w, g * w, b * w
 
@@ -127,31 +88,3 @@ def shade_nodes(model, march, medium, lights, grid, ambient, diffusion, i2w, fac
                 out[i, j, k, 1] = cr * w
                 out[i, j, k, 2] = cg * w
                 out[i, j, k, 3] = cb * w
-
-
-@driver
-def pack_nodes(rec, m, lut_lo, lut_inv, top, out):
-    """Pack the shaded record ``rec`` (float32 ``(m0, m1, m2, 4)``) into ``out`` (uint32
-    ``(m0, m1, m2, 2)``; :func:`pv_ambient.stages.draft.pack_record` states the codes): the scalar's
-    table coordinate over [−m, 2m], each source channel's square root of its fraction of ``top``."""
-    for i in prange(rec.shape[0]):
-        for j in range(rec.shape[1]):
-            for k in range(rec.shape[2]):
-                u = (np.float64(rec[i, j, k, 0]) - lut_lo) * lut_inv
-                c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
-                qs = np.uint32(math.floor(c * CODE + 0.5))
-                qr = _code(rec[i, j, k, 1], top)
-                qg = _code(rec[i, j, k, 2], top)
-                qb = _code(rec[i, j, k, 3], top)
-                out[i, j, k, 0] = qs | (qr << np.uint32(16))
-                out[i, j, k, 1] = qg | (qb << np.uint32(16))
-
-
-@scalar(inline=True)
-def _code(v, top):
-    """The 16-bit square-root code of source value ``v`` over ``top`` (0 for a negative or NaN value,
-    the top code above ``top``)."""
-    f = np.float64(v) / top
-    f = f if f > 0.0 else 0.0  # NaN and negatives: 0
-    f = f if f < 1.0 else 1.0
-    return np.uint32(math.floor(math.sqrt(f) * CODE + 0.5))

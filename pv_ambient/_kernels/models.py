@@ -27,3 +27,8 @@ RAYCAST_MODELS = (EMISSION_ABSORPTION, AMBIENT_OCCLUSION, SINGLE_SCATTERING, AMB
 #: record shaded beforehand on every other data sample instead of evaluating the model there —
 #: what an interactive drag renders for any lit model whose source does not depend on the view.
 DRAFT = 5
+
+#: Not a model either: a lit camera pass that reads the lights' in-scattered light from one packed
+#: record per data sample (:mod:`.record`) beside the transfer function's table — how the CPU
+#: marches a baked lit model on a light grid whose nodes are the data samples.
+RECORD = 6

@@ -52,10 +52,11 @@ import numpy as np
 from ._jit import driver, prange, scalar, with_globals
 from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span, empty_distance, run_end
-from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
+from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity, table_coords,
                      step_sample)
-from .models import AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, SINGLE_SCATTERING
+from .models import AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, RECORD, SINGLE_SCATTERING
 from .draft import draft_sample, draft_source
+from .record import record_values
 from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_layout, diffusion_rgb, grid_point, point_weight
 from .raycast import STREAM_JITTER, TILE, index_ray, lit_table_source, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
@@ -297,6 +298,29 @@ def lanes_sample_draft(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights,
 
 
 @scalar(inline=True)
+def lanes_sample_record(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
+    """Pass 3 of a lit record (vectorised): every lane interpolates the record ``dfield``
+    (:func:`.record.record_values`: the scalar's code and the light), looks the code up in the
+    step-corrected table (its opacity, zero for an inactive lane), scales the light by the
+    record's scale over its ``max(d², d2min)`` to the reference point (light 0 of ``lights``;
+    :func:`.record.record_light`) and takes ``a·L + (1 − a)·Le`` (:func:`.raycast.lit_table_source`),
+    then :func:`lanes_composite` (``field`` and ``grid`` unused)."""
+    power = np.float32(lights.power[0, 0])
+    for k in range(LANES):
+        s, r, g, b = record_values(dfield, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
+                                   l32[np.uint64(b32 + Z * LANES + k)])
+        q0, fq = table_coords(s, stab, lut_lo, lut_inv)
+        w = point_weight(lights, 0, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
+                         l32[np.uint64(b32 + WZ * LANES + k)]) * power
+        sr, sg, sb = lit_table_source(stab, q0, fq, r * w, g * w, b * w)
+        l32[np.uint64(b32 + A * LANES + k)] = step_column(stab, q0, fq, 0) * l32[np.uint64(b32 + ACT * LANES + k)]
+        l32[np.uint64(b32 + SR * LANES + k)] = sr
+        l32[np.uint64(b32 + SG * LANES + k)] = sg
+        l32[np.uint64(b32 + SB * LANES + k)] = sb
+    lanes_composite(l32, b32, l64, b64)
+
+
+@scalar(inline=True)
 def lanes_composite(l32, b32, l64, b64):
     """Pass 3, last (vectorised): every lane's sample, opacity ``A`` and source ``SR, SG, SB``
     (float32), composited into its radiance and transmittance (float64). Why a loop of its own: LLVM
@@ -457,7 +481,8 @@ def packet_driver(model):
         step, ert = march.step, march.ert
         field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
         dfield = diffusion.field
-        lit = model == SINGLE_SCATTERING or model == DIFFUSION or model == DRAFT  # pass 3 reads world positions (1/d²)
+        # pass 3 reads world positions (1/d²)
+        lit = model == SINGLE_SCATTERING or model == DIFFUSION or model == DRAFT or model == RECORD
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
         n = n_rows * n_cols
@@ -484,10 +509,10 @@ def packet_driver(model):
 
 #: Each packet model's pass 3 (:func:`packet_driver`).
 PASS3 = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit, DIFFUSION: lanes_sample_diffusion,
-         DRAFT: lanes_sample_draft}
+         DRAFT: lanes_sample_draft, RECORD: lanes_sample_record}
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
-PACKET_DRIVERS = {model: packet_driver(model) for model in (EMISSION_ABSORPTION, SINGLE_SCATTERING, DIFFUSION, DRAFT)}
+PACKET_DRIVERS = {model: packet_driver(model) for model in PASS3}
 
 
 def enabled() -> bool:
@@ -503,7 +528,7 @@ def applies(model, medium, grid) -> bool:
     medium."""
     if not enabled() or int(medium.mode) != MODE_LUT:
         return False
-    return model == EMISSION_ABSORPTION or (model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)
+    return model == EMISSION_ABSORPTION or model == RECORD or (model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)
                                             and grid.baked != 0)
 
 

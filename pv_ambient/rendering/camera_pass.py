@@ -19,6 +19,7 @@ from .._kernels import records as K
 from .. import backend
 from ..inputs.lights import pack_lights
 from .draft import draft_applies, draft_args
+from .record import record_applies, record_args
 from .presets import MAJORANT_BLOCK, MODEL_IDS, MODEL_SPECS, QUALITY_PRESETS
 from .request import stage_bar
 from .result import RenderResult
@@ -189,6 +190,8 @@ def render_camera_pass(renderer, req, model, options, records=None) -> RenderRes
         scale = 1.0
         if draft_applies(req, args):
             (args, scale), draft = draft_args(renderer, args), True
+        elif record_applies(req, args):
+            args = record_args(renderer, args)
         t_prep = time.perf_counter() - t_start
         inner = req.progress_bar is True  # the kernel's own bar (image tiles)
         with stage_bar(req.progress_bar if not inner else False, f"ray cast ({model})"):

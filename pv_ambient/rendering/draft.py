@@ -40,22 +40,22 @@ def draft_applies(req, args) -> bool:
             and packets_apply(model, medium, grid))
 
 
-def _held(inputs):
+def held_inputs(inputs):
     """``inputs`` as the record's cache entry keeps them: a large array by a weak reference (the
     entry must not keep a replaced bake or field alive), a small one (the lights' positions and
     powers, rebuilt every frame) as it is."""
     if isinstance(inputs, (tuple, list)):
-        return tuple(_held(x) for x in inputs)
+        return tuple(held_inputs(x) for x in inputs)
     if isinstance(inputs, np.ndarray) and inputs.size > _BY_VALUE:
         return weakref.ref(inputs)
     return inputs
 
 
-def _same(held, b) -> bool:
-    """Whether inputs ``b`` are those kept as ``held`` (:func:`_held`): large arrays the same
+def same_inputs(held, b) -> bool:
+    """Whether inputs ``b`` are those kept as ``held`` (:func:`held_inputs`): large arrays the same
     objects, small ones equal, other values equal."""
     if isinstance(held, tuple):
-        return isinstance(b, (tuple, list)) and len(held) == len(b) and all(_same(x, y) for x, y in zip(held, b))
+        return isinstance(b, (tuple, list)) and len(held) == len(b) and all(same_inputs(x, y) for x, y in zip(held, b))
     if isinstance(held, weakref.ref):
         return held() is b
     if isinstance(held, np.ndarray) and isinstance(b, np.ndarray):
@@ -65,15 +65,16 @@ def _same(held, b) -> bool:
     return held == b
 
 
-def reference(lights, geometry):
-    """The draft's reference point (:mod:`pv_ambient._kernels.draft`) as a :class:`Lights` record
-    whose light 0 it is: the first point light of ``lights`` (the frame's records) with a
-    ``d2min`` of one data spacing squared, or, with no point light, the box's centre with a
-    ``d2min`` larger than any distance in the box squared (a constant weight)."""
+def reference(lights, geometry, d2min=None):
+    """The reference point of a draft or lit record (:mod:`pv_ambient._kernels.record`) as a
+    :class:`Lights` record whose light 0 it is: the first point light of ``lights`` (the frame's
+    records) with ``d2min`` (default: one data spacing squared), or, with no point light, the box's
+    centre with a ``d2min`` larger than any distance in the box squared (a constant weight)."""
     kind, vec = np.asarray(lights.kind), np.asarray(lights.vec, np.float64)
     points = np.flatnonzero(kind == 0)
     if points.size:
-        pos, d2min = vec[points[0]], float(np.min(geometry.spacing)) ** 2
+        pos = vec[points[0]]
+        d2min = float(np.min(geometry.spacing)) ** 2 if d2min is None else float(d2min)
     else:
         corners = geometry.corners
         pos, d2min = corners.mean(axis=0), 4.0 * geometry.diagonal ** 2 + 1.0
@@ -94,13 +95,13 @@ def _record(renderer, args, shape):
     inputs = (model, medium.field, medium.table, K.arrays(lights), lights.d2min, grid.inc, diffusion.field,
               K.arrays(ambient))
     cache, key = renderer.stages.cache, ("draft_record",)
-    if key in cache and _same(cache[key][0], inputs):
+    if key in cache and same_inputs(cache[key][0], inputs):
         return cache[key][1]
     rec = shade_record((model, view, march, medium, lights, grid, ambient, diffusion),
                        renderer.geometry.index_to_world, shape, reference(lights, renderer.geometry))
     words, level, scale, lut = pack_record(rec, medium.table.shape[0], medium.lut_lo, medium.lut_inv)
     packed = (words, level, scale, lut, code_majorant(renderer.optics, level, lut, MAJORANT_BLOCK))
-    cache[key] = (_held(inputs), packed)
+    cache[key] = (held_inputs(inputs), packed)
     return packed
 
 

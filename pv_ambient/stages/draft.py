@@ -30,7 +30,7 @@ def pack_record(rec, table_size, lut_lo, lut_inv):
     lut)``: uint32 ``(m0, m1, m2, 2)``; the scalar codes as a float32 field (the scalar pass's
     partial segments) with ``lut = (lut_lo, lut_inv)`` mapping a code to the table; the source is
     the codes' squares times ``scale``."""
-    from .._kernels.draft import CODE, pack_nodes
+    from .._kernels.record import CODE, pack_nodes
 
     m = float(table_size - 1)
     src = rec[..., 1:4]

@@ -132,7 +132,10 @@ out["oom_auto_backend"] = res.metadata["backend"]
 out["oom_auto_warning"] = [str(x.message) for x in w if "CPU" in str(x.message)]
 dc.free_device_memory = lambda: float("inf")
 
-# CLI: the JSON scene's "backend" and --backend
+# CLI: the JSON scene's "backend" and --backend. The GPU marches the bake; the CPU marches it too
+# here, not its lit record (docs/performance.rst, "Lit record": the light to 16-bit codes, within
+# 1e-4; tests/rendering/test_record.py checks it against the bake)
+os.environ["PV_AMBIENT_RECORD"] = "0"
 tmp = Path(sys.argv[1])
 scene = {"version": 1, "volume": {"dataset": "cloud", "n": 10}, "model": "ambient_scattering",
          "transfer_function": tf, "lights": [{"kind": "point", "position": [0.2, 0.1, 0.0], "intensity": 2.0}],

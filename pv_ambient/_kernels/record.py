@@ -1,0 +1,127 @@
+"""The packed record a lit camera pass reads (docs/performance.rst, "Lit record"), and the codes it
+shares with a draft frame's (:mod:`.draft`).
+
+A baked lit sample otherwise reads the scalar and the bake's light slots at its eight corners,
+from separate arrays: four gathers per corner for one rgb slot, from two cache lines. The record
+holds, per data sample, the scalar and the lights' in-scattered light per unit albedo
+(:func:`.baked.baked_light`, its slots summed) times ``max(d², d2min)`` to a *reference* point —
+the first point light, whose baked slot holds exactly that — packed into two 32-bit words of
+16-bit codes (:func:`pack_nodes`): two gathers per corner, from one cache line. The sample divides
+by its own ``max(d², d2min)`` to the reference (:func:`record_light`) and classifies the
+interpolated scalar through the step-corrected table as every table sample does, so the transfer
+function's albedo and emission stay post-classified. With the bake one slot (one point light, or
+directional lights and diffusion's field under a constant reference weight) the record's light is
+the bake's; the codes round the scalar to 3·(n − 1)/65535 of a table entry and the light to
+1.5e-5 of its largest value at the top (0.1 % of a value a thousandth of it). Summed over more
+slots, another slot's light would be interpolated times the reference's ``d²``, which trilinear
+interpolation overestimates near the reference: :mod:`pv_ambient.rendering.record` reads the
+record only where the bake is one slot.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import driver, prange, scalar
+from .baked import baked_light, point_weight
+from .medium import corners32
+
+#: The largest 16-bit code of a packed record's values (:func:`pack_nodes`).
+CODE = 65535
+
+
+@scalar(force_inline=True)
+def unpack(rec, i, j, k):
+    """The four values of packed record ``rec`` (uint32 ``(m0, m1, m2, 2)``) at sample (i, j, k):
+    the scalar's 16-bit code and the squares of the three square-root codes (float32).
+    ``np.uint32`` of each word also lets a float32 array type-check here (a dead branch of the other
+    models' scalar pass)."""
+    w0 = np.uint32(rec[i, j, k, np.uint32(0)])
+    w1 = np.uint32(rec[i, j, k, np.uint32(1)])
+    low = np.uint32(0xFFFF)
+    r = np.float32(w0 >> np.uint32(16))
+    g = np.float32(w1 & low)
+    b = np.float32(w1 >> np.uint32(16))
+    return np.float32(w0 & low), r * r, g * g, b * b
+
+
+@scalar(force_inline=True)
+def lerp4(a, b, f):
+    """``a + f·(b − a)`` of two 4-tuples."""
+    return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]), a[3] + f * (b[3] - a[3]))
+
+
+@scalar(force_inline=True)
+def record_values(rec, x, y, z):
+    """The packed record's four values (:func:`unpack`) interpolated trilinearly at the record's
+    index-space point (x, y, z) (float32, unsigned indices: the packet driver's lane loop vectorises
+    it; two gathers per corner)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
+    c00 = lerp4(unpack(rec, i0, j0, k0), unpack(rec, i1, j0, k0), fx)
+    c10 = lerp4(unpack(rec, i0, j1, k0), unpack(rec, i1, j1, k0), fx)
+    c01 = lerp4(unpack(rec, i0, j0, k1), unpack(rec, i1, j0, k1), fx)
+    c11 = lerp4(unpack(rec, i0, j1, k1), unpack(rec, i1, j1, k1), fx)
+    return lerp4(lerp4(c00, c10, fy), lerp4(c01, c11, fy), fz)
+
+
+@scalar(force_inline=True)
+def record_light(rec, ref, x, y, z, wx, wy, wz):
+    """The in-scattered light per unit albedo (rgb, float32) of lit record ``rec`` at index-space
+    point (x, y, z), world point w: the interpolated codes' squares times the record's scale (the
+    power of ``ref``'s light 0, the reference point) over ``max(d², d2min)`` to the reference."""
+    _, r, g, b = record_values(rec, x, y, z)
+    w = point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz)) * np.float32(ref.power[0, 0])
+    return r * w, g * w, b * w
+
+
+@driver
+def light_nodes(field, lights, grid, i2w, ref, out):
+    """Shade the lit record ``out`` (float32 ``field.shape + (4,)``: scalar, light rgb) at every data
+    sample: the scalar, and the baked in-scattered light (:func:`.baked.baked_light` of the frame's
+    ``lights`` and light grid ``grid``, whose nodes are the data samples) times ``max(d², d2min)``
+    to the reference point, light 0 of ``ref``; ``i2w`` the data's index → world affine map."""
+    for i in prange(out.shape[0]):
+        x = np.float64(i)
+        for j in range(out.shape[1]):
+            y = np.float64(j)
+            for k in range(out.shape[2]):
+                z = np.float64(k)
+                wx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 2] * z + i2w[0, 3]
+                wy = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 2] * z + i2w[1, 3]
+                wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
+                lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+                w = np.float32(1.0) / point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
+                out[i, j, k, 0] = field[i, j, k]
+                out[i, j, k, 1] = lr * w
+                out[i, j, k, 2] = lg * w
+                out[i, j, k, 3] = lb * w
+
+
+@driver
+def pack_nodes(rec, m, lut_lo, lut_inv, top, out):
+    """Pack the shaded record ``rec`` (float32 ``(m0, m1, m2, 4)``) into ``out`` (uint32
+    ``(m0, m1, m2, 2)``; :func:`pv_ambient.stages.draft.pack_record` states the codes): the scalar's
+    table coordinate over [−m, 2m], each other channel's square root of its fraction of ``top``."""
+    for i in prange(rec.shape[0]):
+        for j in range(rec.shape[1]):
+            for k in range(rec.shape[2]):
+                u = (np.float64(rec[i, j, k, 0]) - lut_lo) * lut_inv
+                c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
+                qs = np.uint32(math.floor(c * CODE + 0.5))
+                qr = _code(rec[i, j, k, 1], top)
+                qg = _code(rec[i, j, k, 2], top)
+                qb = _code(rec[i, j, k, 3], top)
+                out[i, j, k, 0] = qs | (qr << np.uint32(16))
+                out[i, j, k, 1] = qg | (qb << np.uint32(16))
+
+
+@scalar(inline=True)
+def _code(v, top):
+    """The 16-bit square-root code of value ``v`` over ``top`` (0 for a negative or NaN value, the
+    top code above ``top``)."""
+    f = np.float64(v) / top
+    f = f if f > 0.0 else 0.0  # NaN and negatives: 0
+    f = f if f < 1.0 else 1.0
+    return np.uint32(math.floor(math.sqrt(f) * CODE + 0.5))

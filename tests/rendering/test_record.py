@@ -1,0 +1,133 @@
+"""Tests pv_ambient/rendering/record.py, pv_ambient/stages/record.py and pv_ambient/_kernels/record.py:
+the lit record a CPU camera pass reads (docs/performance.rst, "Lit record") — its light at the data
+samples is the bake's, its image the bake's within the codes' precision, the scalar fallback reads
+it too, and where it does not apply the frame is the bake's, bit for bit."""
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_ambient as pa
+from pv_ambient._kernels import packet
+from pv_ambient._kernels.models import RECORD
+from pv_ambient.inputs.camera import Camera
+
+CAM = Camera((0.4, -3.5, 0.8), (0.0, 0.05, 0.0), (0, 0, 1), view_angle=38)
+SIZE = (40, 32)
+RAYCAST_PACKETS = packet.raycast_packets
+
+
+def blob(dims=(25, 22, 19)):
+    """A smooth scalar blob on a non-cubic grid."""
+    g = pv.ImageData(dimensions=dims, spacing=(0.1, 0.11, 0.13), origin=(-1.2, -1.1, -1.1))
+    p = g.points
+    g["d"] = np.exp(-2.0 * (p[:, 0] ** 2 + 1.5 * p[:, 1] ** 2 + 2.0 * (p[:, 2] - 0.1) ** 2)).astype(np.float32)
+    return g
+
+
+def renderer(lights=None):
+    tf = pa.TransferFunction(cmap="viridis", clim=(0.1, 1.0), opacity="linear", opacity_unit_distance=0.3,
+                             albedo=0.8)
+    lights = lights or [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0))]
+    return pa.Renderer(blob(), transfer_function=tf, lights=lights)
+
+
+def render(r, monkeypatch, record, model="ambient_scattering", **kw):
+    """``r``'s frame with the lit record on or off (``PV_AMBIENT_RECORD``), on the light grid of the
+    data samples, and the kernel models that ran in packets."""
+    models = []
+
+    def spy(*a):
+        models.append(a[0])
+        return RAYCAST_PACKETS(*a)
+
+    monkeypatch.setattr(packet, "raycast_packets", spy)
+    monkeypatch.setenv("PV_AMBIENT_RECORD", "1" if record else "0")
+    kw.setdefault("quality", "preview")
+    res = r.render(camera=CAM, window_size=SIZE, model=model, light_resolution=1.0, progress_bar=False, **kw)
+    return res, models
+
+
+DIRECTIONAL = pa.DirectionalLight((0.3, 0.5, -1.0), irradiance=(7.0, 5.0, 3.0))
+
+
+@pytest.mark.parametrize("model, lights", [("single_scattering", "point"), ("ambient_scattering", "point"),
+                                           ("ambient_scattering", "directional"), ("diffusion", "directional")])
+def test_record_renders_the_bakes_image(model, lights, monkeypatch):
+    """One rgb point light (the reference: its in-scattering is the bake's), or a directional light
+    (with diffusion's field in its slot; a constant reference weight): the record's image is the
+    bake's within the 16-bit codes (the scalar to 3·(n−1)/65535 of a table entry, the light to
+    1.5e-5 of its largest value)."""
+    r = renderer([DIRECTIONAL] if lights == "directional" else None)
+    old, m0 = render(r, monkeypatch, False, model)
+    new, m1 = render(r, monkeypatch, True, model)
+    assert RECORD not in m0 and m1 and set(m1) == {RECORD}
+    a, b = np.asarray(old.radiance, np.float64), np.asarray(new.radiance, np.float64)
+    assert a.mean() > 1e-2 and old.alpha.max() > 0.3
+    assert np.abs(a - b).max() <= 2e-4 * a.max()
+    assert np.abs(old.alpha - new.alpha).max() <= 2e-4
+
+
+def test_record_light_is_the_bakes_slot(monkeypatch):
+    """At every data sample the record's decoded light is the bake's point-light slot, to the codes'
+    precision (the slot holds the light times ``max(d², d2min)``, as the record does)."""
+    from pv_ambient.rendering import camera_pass
+
+    got = []
+    real = camera_pass.record_args
+
+    def spy(renderer, args):
+        got.append((args, real(renderer, args)))
+        return got[-1][1]
+
+    monkeypatch.setattr(camera_pass, "record_args", spy)
+    r = renderer()
+    render(r, monkeypatch, True)
+    args, rec = got[-1]
+    words, ref, grid, lights = rec[7].field, rec[4], args[5], args[4]
+    scale = float(ref.power[0, 0])
+    light = np.stack([(words[..., 0] >> 16), words[..., 1] & 0xFFFF, words[..., 1] >> 16], -1).astype(np.float64)
+    light = light ** 2 * scale
+    want = np.asarray(grid.inc, np.float64)
+    assert want.shape == light.shape
+    top = want.max()
+    assert top > 0 and np.abs(light - want).max() <= 2e-4 * top
+    assert np.array_equal(lights.vec[0], ref.vec[0]) and ref.d2min == lights.d2min
+
+
+def test_scalar_fallback_reads_the_record(monkeypatch):
+    """``PV_AMBIENT_PACKETS=0`` marches the same record one ray at a time: the packets' image."""
+    r = renderer()
+    a, m = render(r, monkeypatch, True)
+    monkeypatch.setenv("PV_AMBIENT_PACKETS", "0")
+    b, m2 = render(r, monkeypatch, True)
+    assert set(m) == {RECORD} and not m2
+    assert np.abs(np.asarray(a.radiance, np.float64) - b.radiance).max() <= 1e-6 * float(a.radiance.max())
+    assert np.abs(a.alpha - b.alpha).max() <= 1e-6
+
+
+@pytest.mark.parametrize("case", ["grey_single_light", "point_and_directional", "diffusion", "refined_grid"])
+def test_the_bake_where_the_record_does_not_apply(case, monkeypatch):
+    """A grey single light's bake reads two values per corner already; a second slot (a directional
+    light's, diffusion's field beside a point light) would be interpolated times the point light's
+    d²; a light grid finer than the data is not on its samples: the frame is the bake's, bit for bit."""
+    lights = None
+    kw = {}
+    if case == "grey_single_light":
+        lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=2.0)]
+    elif case == "point_and_directional":
+        lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0)), DIRECTIONAL]
+    r = renderer(lights)
+    model = {"grey_single_light": "single_scattering", "diffusion": "diffusion"}.get(case, "ambient_scattering")
+    if case == "refined_grid":
+        monkeypatch.setenv("PV_AMBIENT_RECORD", "1")
+        res = r.render(camera=CAM, window_size=SIZE, model=model, light_resolution=2.0, quality="preview",
+                       progress_bar=False)
+        monkeypatch.setenv("PV_AMBIENT_RECORD", "0")
+        ref = r.render(camera=CAM, window_size=SIZE, model=model, light_resolution=2.0, quality="preview",
+                       progress_bar=False)
+        assert np.array_equal(res.radiance, ref.radiance)
+        return
+    old, _ = render(r, monkeypatch, False, model, **kw)
+    new, m = render(r, monkeypatch, True, model, **kw)
+    assert RECORD not in m and np.array_equal(old.radiance, new.radiance)
