@@ -56,6 +56,45 @@ def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
                     out[a, b, c] = m
 
 
+@driver
+def build_cast_majorant(mode, field, table, lut_lo, lut_inv, block, sigma_min, out):
+    """The ray cast's majorant grid: :func:`build_majorant`'s blocks, each the largest σt a sample
+    in it can take, and 0 where that is at most ``sigma_min`` (a negligible σt: the caller's). In
+    LUT mode the σt of an interpolated scalar is
+    piecewise linear in it, so its largest over the block's scalars is the table interpolated at
+    the least and the greatest scalar or an entry between them — where :func:`build_majorant`
+    takes every entry the two touch: a block of scalars that are zero but for denormal rounding
+    is empty here and not there. The path tracer's delta tracking keeps :func:`build_majorant`
+    (it needs a bound, not the ray cast's skip)."""
+    nx, ny, nz = field.shape
+    mx, my, mz = out.shape
+    n = table.shape[0]
+    for c in prange(mz):
+        for b in range(my):
+            for a in range(mx):
+                smin = math.inf
+                smax = -math.inf
+                for i in range(a * block, min((a + 1) * block, nx - 1) + 1):  # C order: k innermost
+                    for j in range(b * block, min((b + 1) * block, ny - 1) + 1):
+                        for k in range(c * block, min((c + 1) * block, nz - 1) + 1):
+                            v = field[i, j, k]
+                            if v < smin:
+                                smin = v
+                            if v > smax:
+                                smax = v
+                if mode == MODE_GRID:
+                    m = np.float64(smax)
+                else:
+                    i0, i1, f0 = lut_coords(smin, lut_lo, lut_inv, n)
+                    j0, j1, f1 = lut_coords(smax, lut_lo, lut_inv, n)
+                    m = max(table[i0, 0] + f0 * (table[i1, 0] - table[i0, 0]),
+                            table[j0, 0] + f1 * (table[j1, 0] - table[j0, 0]))
+                    for k in range(i0 + 1, j0 + 1):
+                        if table[k, 0] > m:
+                            m = table[k, 0]
+                out[a, b, c] = m if m > sigma_min else 0.0
+
+
 @scalar(inline=True)
 def block_of(x, block, m):
     """Block index of continuous index coordinate ``x`` (clamped to [0, m−1]). Comparisons with

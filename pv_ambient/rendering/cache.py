@@ -14,7 +14,7 @@ from collections.abc import Callable, Iterable
 from ..backend import blas_before_stage
 
 #: Stages computed from σt and the geometry alone (no albedo, emission or colour).
-SIGMA_ONLY = frozenset({"majorant", "light_grid", "sigma_l", "tau"})
+SIGMA_ONLY = frozenset({"majorant", "cast_majorant", "light_grid", "sigma_l", "tau"})
 #: Stages that depend on nothing in the scene but their key (the preintegrated table slices).
 SCENE_INDEPENDENT = frozenset({"table"})
 

@@ -125,6 +125,13 @@ class SceneStages:
 
         return self.cache.get(("majorant", block), lambda: majorant_grid(self.optics, block))
 
+    def cast_majorant(self, block=MAJORANT_BLOCK):
+        """The ray cast's majorant grid in (``block``)³ samples (cached;
+        :func:`pv_ambient.stages.medium.cast_majorant`): its empty blocks are those a ray skips."""
+        from ..stages.medium import cast_majorant
+
+        return self.cache.get(("cast_majorant", block), lambda: cast_majorant(self.optics, block))
+
     def step_opacity(self, step):
         """The medium's step-corrected table for world step ``step`` (:func:`pv_ambient.stages.medium.step_opacity`),
         cached per step: a camera move reuses it, and the GPU's copy with it."""

@@ -17,6 +17,29 @@ def majorant_grid(optics, block) -> np.ndarray:
     return maj
 
 
+#: The ray cast's empty blocks (:func:`cast_majorant`): those where no sample's σt exceeds this
+#: fraction of the medium's largest. A skipped block adds at most this fraction of the optical depth
+#: the densest medium would over the same path — far below a picture's precision, and a uniformly
+#: thin medium (every block at the largest σt) is never skipped.
+EMPTY_RATIO = 1e-12
+
+
+def cast_majorant(optics, block) -> np.ndarray:
+    """The ray cast's majorant grid in ``block``³ samples (:func:`pv_ambient._kernels.majorant.build_cast_majorant`):
+    the largest σt a sample of each block can take, 0 where that is at most :data:`EMPTY_RATIO` of
+    the medium's largest (docs/performance.rst, "Empty space")."""
+    from .._kernels.majorant import build_cast_majorant
+    from .._kernels.medium import MODE_LUT
+
+    sigma = optics.table[:, 0] if optics.mode == MODE_LUT else optics.field
+    top = float(np.max(sigma)) if np.size(sigma) else 0.0
+    shape = tuple(max(1, -(-(n - 1) // block)) for n in optics.field.shape)
+    maj = np.zeros(shape, np.float32)
+    build_cast_majorant(optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, block,
+                        EMPTY_RATIO * top if np.isfinite(top) else 0.0, maj)
+    return maj
+
+
 def step_opacity(optics, step) -> np.ndarray:
     """The ray cast's step-corrected table of ``optics`` for world step ``step``
     (:func:`pv_ambient._kernels.medium.step_table`); the placeholder for a GRID-mode medium, which

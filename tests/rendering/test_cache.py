@@ -36,7 +36,7 @@ def test_a_key_is_a_tuple_starting_with_the_stage_name(key):
 def test_with_sigma_only_keeps_the_entries_of_sigma_and_geometry_alone():
     c = _filled()
     sigma = c.with_sigma_only()
-    assert SIGMA_ONLY == {"majorant", "light_grid", "sigma_l", "tau"}
+    assert SIGMA_ONLY == {"majorant", "cast_majorant", "light_grid", "sigma_l", "tau"}
     assert sigma.kinds() == {"majorant", "light_grid", "tau"} and len(sigma) == 3
     assert len(c) == 6  # the original keeps everything
     sigma[("ball", 0.5)] = "new"

@@ -55,10 +55,10 @@ def test_other_colours_of_the_same_sigma_reuse_its_light_volumes_and_share_the_d
     by reference — a render then computes no light volume again — and one GPU cache for both."""
     r = renderer(physical_grid(n=9))
     render(r, "single_scattering")
-    assert {"incident", "tau", "light_grid", "majorant"} <= r.cache.kinds()
+    assert {"incident", "tau", "light_grid", "cast_majorant"} <= r.cache.kinds()
     other = r.with_optics(r.optics.albedo_as_colour())
     # σt itself was dropped before the bake array was made (SceneStages._release_sigma)
-    assert other.cache.kinds() == r.cache.kinds() & SIGMA_ONLY == {"majorant", "light_grid", "tau"}
+    assert other.cache.kinds() == r.cache.kinds() & SIGMA_ONLY == {"cast_majorant", "light_grid", "tau"}
     taus = {k: r.cache[k] for k in r.cache.keys("tau")}
     assert len(taus) == len(LIGHTS)
     render(other, "single_scattering")
