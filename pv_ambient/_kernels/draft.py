@@ -17,7 +17,7 @@ light's ``1/d²`` peak — but for one point light, the *reference*: the record 
 times ``max(d², d2min)`` to it, as a bake's point-light slot does, and the sample divides by its own
 (``ref``, a :class:`.records.Lights` whose light 0 is the reference; with no point light a point
 whose ``d2min`` exceeds every distance in the box, a constant weight). The packet driver runs it
-as model :data:`.models.DRAFT` (:func:`.packet.lanes_sample_draft`); its scalar pass reads the
+as model :data:`.models.DRAFT` (:func:`.packet_records.lanes_sample_draft`); its scalar pass reads the
 source with :func:`draft_source`.
 """
 

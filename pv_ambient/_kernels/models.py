@@ -32,3 +32,7 @@ DRAFT = 5
 #: record per data sample (:mod:`.record`) beside the transfer function's table — how the CPU
 #: marches a baked lit model on a light grid whose nodes are the data samples.
 RECORD = 6
+
+#: Not a model: the lit record of a bake of two rgb slots — a point light's and the other lights'
+#: with diffusion's field — kept apart in four 32-bit words (:func:`.record.pair_light`).
+RECORD_PAIR = 7

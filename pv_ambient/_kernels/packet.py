@@ -15,12 +15,12 @@ termination and jitter — split in three passes per step of the packet:
    non-empty, it walks on to the end of the run of non-empty blocks (:func:`.majorant.run_end`):
    the per-pixel march's lookups inside such a run change nothing but its next boundary, so the
    samples are the same and a lane comes back here only at the run's end;
-3. :func:`lanes_sample_ea`, :func:`lanes_sample_draft` (a draft frame, :mod:`.draft`), or
-   :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
+3. :func:`lanes_sample_ea`; a record model's (:mod:`.packet_records`: a draft frame, a lit
+   record); or :func:`lanes_lit_light` (+ :func:`lanes_diffusion`) and
    :func:`lanes_lit_composite` (vectorised): every active lane samples its segment with the scalar
    functions the per-pixel march uses (:func:`.medium.step_sample`; :func:`.medium.step_lookup`,
    :func:`.baked.baked_light`'s and :func:`.baked.diffusion_baked`'s terms,
-   :func:`.raycast.lit_table_source`) into float32 lane fields, then :func:`lanes_composite`
+   :func:`.raycast.lit_table_source`) into float32 lane fields, then :func:`.lanes.lanes_composite`
    composites them (float64).
 
 Lane state is a flat structure of arrays per thread (float32 positions for the sample and the
@@ -52,33 +52,19 @@ import numpy as np
 from ._jit import driver, prange, scalar, with_globals
 from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span, empty_distance, run_end
-from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity, table_coords,
+from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
                      step_sample)
-from .models import AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, RECORD, SINGLE_SCATTERING
-from .draft import draft_sample, draft_source
-from .record import record_values
+from .models import (AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, RECORD, RECORD_PAIR,
+                     SINGLE_SCATTERING)
+from .draft import draft_source
+from .lanes import (A, ACT, DONE, DX, DY, DZ, FQ, LANES, LX, LY, LZ, N32, N64, OX, OY, OZ, PX, PY, PZ, Q0, QX,
+                    QY, QZ, RB, RG, RR, SB, SG, SIDE, SR, T1, TB, TN, TR, TS, WX, WY, WZ, X, Y, Z, lanes_composite)
+from .packet_records import lanes_sample_draft, lanes_sample_record, lanes_sample_record_pair
 from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_layout, diffusion_rgb, grid_point, point_weight
 from .raycast import STREAM_JITTER, TILE, index_ray, lit_table_source, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
 from .rng import uniform
 
-#: Rays per packet, a 4 × 8 pixel block: two AVX-512 registers of float32 lanes. Why two: each lane
-#: loop then holds two independent vectors of gathers and arithmetic, which the CPU overlaps where
-#: one vector's gathers wait on memory (docs/performance.rst, "CPU camera pass": 16 lanes were
-#: 9–17 % slower on the speed scene's camera moves).
-LANES = 32
-#: The packet's width in pixels; its height is ``LANES // SIDE``.
-SIDE = 4
-
-# float32 lane fields: the sample's index-space and world position, whether the lane samples this
-# step; the sample's opacity (zero where inactive) and source rgb (a lit sample: its in-scattered
-# light first); for a lit sample its table entry and fraction, and light-grid position
-X, Y, Z, ACT, WX, WY, WZ, A, SR, SG, SB, Q0, FQ, LX, LY, LZ = range(16)
-N32 = 16
-# float64 lane fields: ray origin and direction in index space, segment start, next boundary,
-# ray end, exit of the current non-empty block, done, transmittance, radiance rgb, the world ray
-PX, PY, PZ, QX, QY, QZ, TS, TN, T1, TB, DONE, TR, RR, RG, RB, OX, OY, OZ, DX, DY, DZ = range(21)
-N64 = 21
 
 
 @scalar
@@ -280,63 +266,6 @@ def lanes_sample_ea(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, gr
 
 
 @scalar(inline=True)
-def lanes_sample_draft(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
-    """Pass 3 of a draft frame (vectorised): every lane samples its full segment of the draft record
-    ``dfield`` with :func:`.draft.draft_sample` (its opacity, zero for an inactive lane, and source
-    over the weight of the reference point, light 0 of ``lights``), then :func:`lanes_composite`
-    (``field`` and ``grid`` unused)."""
-    for k in range(LANES):
-        a, cr, cg, cb = draft_sample(dfield, stab, lut_lo, lut_inv, l32[np.uint64(b32 + X * LANES + k)],
-                                     l32[np.uint64(b32 + Y * LANES + k)], l32[np.uint64(b32 + Z * LANES + k)])
-        w = point_weight(lights, 0, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
-                         l32[np.uint64(b32 + WZ * LANES + k)])
-        l32[np.uint64(b32 + A * LANES + k)] = a * l32[np.uint64(b32 + ACT * LANES + k)]
-        l32[np.uint64(b32 + SR * LANES + k)] = cr * w
-        l32[np.uint64(b32 + SG * LANES + k)] = cg * w
-        l32[np.uint64(b32 + SB * LANES + k)] = cb * w
-    lanes_composite(l32, b32, l64, b64)
-
-
-@scalar(inline=True)
-def lanes_sample_record(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
-    """Pass 3 of a lit record (vectorised): every lane interpolates the record ``dfield``
-    (:func:`.record.record_values`: the scalar's code and the light), looks the code up in the
-    step-corrected table (its opacity, zero for an inactive lane), scales the light by the
-    record's scale over its ``max(d², d2min)`` to the reference point (light 0 of ``lights``;
-    :func:`.record.record_light`) and takes ``a·L + (1 − a)·Le`` (:func:`.raycast.lit_table_source`),
-    then :func:`lanes_composite` (``field`` and ``grid`` unused)."""
-    power = np.float32(lights.power[0, 0])
-    for k in range(LANES):
-        s, r, g, b = record_values(dfield, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
-                                   l32[np.uint64(b32 + Z * LANES + k)])
-        q0, fq = table_coords(s, stab, lut_lo, lut_inv)
-        w = point_weight(lights, 0, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
-                         l32[np.uint64(b32 + WZ * LANES + k)]) * power
-        sr, sg, sb = lit_table_source(stab, q0, fq, r * w, g * w, b * w)
-        l32[np.uint64(b32 + A * LANES + k)] = step_column(stab, q0, fq, 0) * l32[np.uint64(b32 + ACT * LANES + k)]
-        l32[np.uint64(b32 + SR * LANES + k)] = sr
-        l32[np.uint64(b32 + SG * LANES + k)] = sg
-        l32[np.uint64(b32 + SB * LANES + k)] = sb
-    lanes_composite(l32, b32, l64, b64)
-
-
-@scalar(inline=True)
-def lanes_composite(l32, b32, l64, b64):
-    """Pass 3, last (vectorised): every lane's sample, opacity ``A`` and source ``SR, SG, SB``
-    (float32), composited into its radiance and transmittance (float64). Why a loop of its own: LLVM
-    picks one vector width per loop, from the widest type the loop loads or stores; the sample
-    loops before it, which hold the gathers, touch only float32 and so run twice the lanes per
-    instruction (docs/performance.rst, "CPU camera pass")."""
-    for k in range(LANES):
-        T = l64[np.uint64(b64 + TR * LANES + k)]
-        w = T * l32[np.uint64(b32 + A * LANES + k)]
-        l64[np.uint64(b64 + RR * LANES + k)] += w * l32[np.uint64(b32 + SR * LANES + k)]
-        l64[np.uint64(b64 + RG * LANES + k)] += w * l32[np.uint64(b32 + SG * LANES + k)]
-        l64[np.uint64(b64 + RB * LANES + k)] += w * l32[np.uint64(b32 + SB * LANES + k)]
-        l64[np.uint64(b64 + TR * LANES + k)] = T - w
-
-
-@scalar(inline=True)
 def lanes_lit_light(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid):
     """Pass 3 of a lit sample with baked lights (vectorised), first part: the opacity and table
     entry of every lane's sample, then the baked light one light slot at a time
@@ -482,7 +411,8 @@ def packet_driver(model):
         field, stab, lut_lo, lut_inv = medium.field, march.opacity, medium.lut_lo, medium.lut_inv
         dfield = diffusion.field
         # pass 3 reads world positions (1/d²)
-        lit = model == SINGLE_SCATTERING or model == DIFFUSION or model == DRAFT or model == RECORD
+        lit = (model == SINGLE_SCATTERING or model == DIFFUSION or model == DRAFT or model == RECORD
+               or model == RECORD_PAIR)
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
         n = n_rows * n_cols
@@ -509,7 +439,7 @@ def packet_driver(model):
 
 #: Each packet model's pass 3 (:func:`packet_driver`).
 PASS3 = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit, DIFFUSION: lanes_sample_diffusion,
-         DRAFT: lanes_sample_draft, RECORD: lanes_sample_record}
+         DRAFT: lanes_sample_draft, RECORD: lanes_sample_record, RECORD_PAIR: lanes_sample_record_pair}
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
 PACKET_DRIVERS = {model: packet_driver(model) for model in PASS3}
@@ -524,12 +454,12 @@ def enabled() -> bool:
 def applies(model, medium, grid) -> bool:
     """Whether ray-cast ``model`` on ``medium`` (a :class:`.records.Medium`) with light grid ``grid``
     runs in packets: emission–absorption, and single scattering, ambient scattering or diffusion whose
-    lights' in-scattering is baked (ambient scattering's ball term is in the bake), of a LUT-mode
-    medium."""
+    lights' in-scattering is baked (ambient scattering's ball term is in the bake), or a lit record's
+    (:mod:`.record`), of a LUT-mode medium."""
     if not enabled() or int(medium.mode) != MODE_LUT:
         return False
-    return model == EMISSION_ABSORPTION or model == RECORD or (model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)
-                                            and grid.baked != 0)
+    return model in (EMISSION_ABSORPTION, RECORD, RECORD_PAIR) or (
+        model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION) and grid.baked != 0)
 
 
 def scratch():

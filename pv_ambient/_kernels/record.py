@@ -14,8 +14,10 @@ directional lights and diffusion's field under a constant reference weight) the 
 the bake's; the codes round the scalar to 3·(n − 1)/65535 of a table entry and the light to
 1.5e-5 of its largest value at the top (0.1 % of a value a thousandth of it). Summed over more
 slots, another slot's light would be interpolated times the reference's ``d²``, which trilinear
-interpolation overestimates near the reference: :mod:`pv_ambient.rendering.record` reads the
-record only where the bake is one slot.
+interpolation overestimates near the reference: a point light's slot beside the other lights'
+(diffusion's field with a point light) has a *pair record* of four words instead, the slots apart
+(:func:`pack_pair_nodes`, :func:`pair_light`) — four gathers per corner where the bake takes
+seven.
 """
 
 from __future__ import annotations
@@ -76,6 +78,56 @@ def record_light(rec, ref, x, y, z, wx, wy, wz):
     return r * w, g * w, b * w
 
 
+@scalar(force_inline=True)
+def unpack_pair(rec, i, j, k):
+    """The seven values of a pair record ``rec`` (uint32 ``(m0, m1, m2, 4)``; :func:`pack_pair_nodes`)
+    at sample (i, j, k): the scalar's code, then the squares of the point slot's and of the other
+    slot's three square-root codes (float32)."""
+    w0 = np.uint32(rec[i, j, k, np.uint32(0)])
+    w1 = np.uint32(rec[i, j, k, np.uint32(1)])
+    w2 = np.uint32(rec[i, j, k, np.uint32(2)])
+    w3 = np.uint32(rec[i, j, k, np.uint32(3)])
+    low = np.uint32(0xFFFF)
+    pr = np.float32(w0 >> np.uint32(16))
+    pg = np.float32(w1 & low)
+    pb = np.float32(w1 >> np.uint32(16))
+    dr = np.float32(w2 & low)
+    dg = np.float32(w2 >> np.uint32(16))
+    db = np.float32(w3 & low)
+    return np.float32(w0 & low), pr * pr, pg * pg, pb * pb, dr * dr, dg * dg, db * db
+
+
+@scalar(force_inline=True)
+def lerp7(a, b, f):
+    """``a + f·(b − a)`` of two 7-tuples."""
+    return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]), a[3] + f * (b[3] - a[3]),
+            a[4] + f * (b[4] - a[4]), a[5] + f * (b[5] - a[5]), a[6] + f * (b[6] - a[6]))
+
+
+@scalar(force_inline=True)
+def pair_values(rec, x, y, z):
+    """The pair record's seven values (:func:`unpack_pair`) interpolated trilinearly at index-space
+    point (x, y, z) (float32; four gathers per corner, from one cache line)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
+    c00 = lerp7(unpack_pair(rec, i0, j0, k0), unpack_pair(rec, i1, j0, k0), fx)
+    c10 = lerp7(unpack_pair(rec, i0, j1, k0), unpack_pair(rec, i1, j1, k0), fx)
+    c01 = lerp7(unpack_pair(rec, i0, j0, k1), unpack_pair(rec, i1, j0, k1), fx)
+    c11 = lerp7(unpack_pair(rec, i0, j1, k1), unpack_pair(rec, i1, j1, k1), fx)
+    return lerp7(lerp7(c00, c10, fy), lerp7(c01, c11, fy), fz)
+
+
+@scalar(force_inline=True)
+def pair_light(rec, ref, x, y, z, wx, wy, wz):
+    """The in-scattered light per unit albedo (rgb, float32) of pair record ``rec`` at index-space
+    point (x, y, z), world point w: the point slot's codes times its scale (``ref.power[0, 0]``)
+    over ``max(d², d2min)`` to the point light (light 0 of ``ref``), plus the other slot's times its
+    scale (``ref.power[0, 1]``)."""
+    _, pr, pg, pb, dr, dg, db = pair_values(rec, x, y, z)
+    w = point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz)) * np.float32(ref.power[0, 0])
+    sd = np.float32(ref.power[0, 1])
+    return pr * w + dr * sd, pg * w + dg * sd, pb * w + db * sd
+
+
 @driver
 def light_nodes(field, lights, grid, i2w, ref, out):
     """Shade the lit record ``out`` (float32 ``field.shape + (4,)``: scalar, light rgb) at every data
@@ -115,6 +167,25 @@ def pack_nodes(rec, m, lut_lo, lut_inv, top, out):
                 qb = _code(rec[i, j, k, 3], top)
                 out[i, j, k, 0] = qs | (qr << np.uint32(16))
                 out[i, j, k, 1] = qg | (qb << np.uint32(16))
+
+
+@driver
+def pack_pair_nodes(field, inc, m, lut_lo, lut_inv, top_p, top_d, out):
+    """Pack a pair record (uint32 ``out``, ``field.shape + (4,)``) from scalar ``field`` and a bake
+    ``inc`` of two rgb slots on the data samples (the point light's, channels 0–2; the other's,
+    3–5): the scalar's code as :func:`pack_nodes` writes it, then the point slot's square-root
+    codes over ``top_p`` and the other slot's over ``top_d`` — words ``s | Pr``, ``Pg | Pb``,
+    ``Dr | Dg``, ``Db``."""
+    for i in prange(out.shape[0]):
+        for j in range(out.shape[1]):
+            for k in range(out.shape[2]):
+                u = (np.float64(field[i, j, k]) - lut_lo) * lut_inv
+                c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
+                qs = np.uint32(math.floor(c * CODE + 0.5))
+                out[i, j, k, 0] = qs | (_code(inc[i, j, k, 0], top_p) << np.uint32(16))
+                out[i, j, k, 1] = _code(inc[i, j, k, 1], top_p) | (_code(inc[i, j, k, 2], top_p) << np.uint32(16))
+                out[i, j, k, 2] = _code(inc[i, j, k, 3], top_d) | (_code(inc[i, j, k, 4], top_d) << np.uint32(16))
+                out[i, j, k, 3] = _code(inc[i, j, k, 5], top_d)
 
 
 @scalar(inline=True)

@@ -8,6 +8,10 @@ import warnings
 from pathlib import Path
 
 assert os.environ.get("NUMBA_ENABLE_CUDASIM") == "1"
+# The GPU marches the bake; the CPU marches it too here, not its lit record (docs/performance.rst,
+# "Lit record": the light to 16-bit codes, within 2e-4 of the bake's image, which
+# tests/rendering/test_record.py checks)
+os.environ["PV_AMBIENT_RECORD"] = "0"
 import numpy as np  # noqa: E402
 
 import pv_ambient as pa  # noqa: E402
@@ -132,10 +136,7 @@ out["oom_auto_backend"] = res.metadata["backend"]
 out["oom_auto_warning"] = [str(x.message) for x in w if "CPU" in str(x.message)]
 dc.free_device_memory = lambda: float("inf")
 
-# CLI: the JSON scene's "backend" and --backend. The GPU marches the bake; the CPU marches it too
-# here, not its lit record (docs/performance.rst, "Lit record": the light to 16-bit codes, within
-# 1e-4; tests/rendering/test_record.py checks it against the bake)
-os.environ["PV_AMBIENT_RECORD"] = "0"
+# CLI: the JSON scene's "backend" and --backend
 tmp = Path(sys.argv[1])
 scene = {"version": 1, "volume": {"dataset": "cloud", "n": 10}, "model": "ambient_scattering",
          "transfer_function": tf, "lights": [{"kind": "point", "position": [0.2, 0.1, 0.0], "intensity": 2.0}],

@@ -9,7 +9,7 @@ import pyvista as pv
 
 import pv_ambient as pa
 from pv_ambient._kernels import packet
-from pv_ambient._kernels.models import RECORD
+from pv_ambient._kernels.models import RECORD, RECORD_PAIR
 from pv_ambient.inputs.camera import Camera
 
 CAM = Camera((0.4, -3.5, 0.8), (0.0, 0.05, 0.0), (0, 0, 1), view_angle=38)
@@ -52,16 +52,20 @@ DIRECTIONAL = pa.DirectionalLight((0.3, 0.5, -1.0), irradiance=(7.0, 5.0, 3.0))
 
 
 @pytest.mark.parametrize("model, lights", [("single_scattering", "point"), ("ambient_scattering", "point"),
-                                           ("ambient_scattering", "directional"), ("diffusion", "directional")])
+                                           ("ambient_scattering", "directional"), ("diffusion", "directional"),
+                                           ("ambient_scattering", "both"), ("diffusion", "point")])
 def test_record_renders_the_bakes_image(model, lights, monkeypatch):
     """One rgb point light (the reference: its in-scattering is the bake's), or a directional light
-    (with diffusion's field in its slot; a constant reference weight): the record's image is the
-    bake's within the 16-bit codes (the scalar to 3·(n−1)/65535 of a table entry, the light to
-    1.5e-5 of its largest value)."""
-    r = renderer([DIRECTIONAL] if lights == "directional" else None)
+    (with diffusion's field in its slot; a constant reference weight) — the one-slot record — or a
+    point light beside a directional light or diffusion's field — the pair record, its slots apart:
+    the record's image is the bake's within the 16-bit codes (the scalar to 3·(n−1)/65535 of a
+    table entry, the light to 1.5e-5 of its largest value)."""
+    point = pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0))
+    r = renderer({"point": [point], "directional": [DIRECTIONAL], "both": [DIRECTIONAL, point]}[lights])
+    kind = RECORD_PAIR if lights == "both" or (model, lights) == ("diffusion", "point") else RECORD
     old, m0 = render(r, monkeypatch, False, model)
     new, m1 = render(r, monkeypatch, True, model)
-    assert RECORD not in m0 and m1 and set(m1) == {RECORD}
+    assert kind not in m0 and m1 and set(m1) == {kind}
     a, b = np.asarray(old.radiance, np.float64), np.asarray(new.radiance, np.float64)
     assert a.mean() > 1e-2 and old.alpha.max() > 0.3
     assert np.abs(a - b).max() <= 2e-4 * a.max()
@@ -95,30 +99,32 @@ def test_record_light_is_the_bakes_slot(monkeypatch):
     assert np.array_equal(lights.vec[0], ref.vec[0]) and ref.d2min == lights.d2min
 
 
-def test_scalar_fallback_reads_the_record(monkeypatch):
+@pytest.mark.parametrize("kind", [RECORD, RECORD_PAIR])
+def test_scalar_fallback_reads_the_record(kind, monkeypatch):
     """``PV_AMBIENT_PACKETS=0`` marches the same record one ray at a time: the packets' image."""
-    r = renderer()
+    r = renderer(None if kind == RECORD else [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0)),
+                                              DIRECTIONAL])
     a, m = render(r, monkeypatch, True)
     monkeypatch.setenv("PV_AMBIENT_PACKETS", "0")
     b, m2 = render(r, monkeypatch, True)
-    assert set(m) == {RECORD} and not m2
+    assert set(m) == {kind} and not m2
     assert np.abs(np.asarray(a.radiance, np.float64) - b.radiance).max() <= 1e-6 * float(a.radiance.max())
     assert np.abs(a.alpha - b.alpha).max() <= 1e-6
 
 
-@pytest.mark.parametrize("case", ["grey_single_light", "point_and_directional", "diffusion", "refined_grid"])
+@pytest.mark.parametrize("case", ["grey_single_light", "two_point_lights", "refined_grid"])
 def test_the_bake_where_the_record_does_not_apply(case, monkeypatch):
-    """A grey single light's bake reads two values per corner already; a second slot (a directional
-    light's, diffusion's field beside a point light) would be interpolated times the point light's
-    d²; a light grid finer than the data is not on its samples: the frame is the bake's, bit for bit."""
+    """A grey single light's bake reads two values per corner already; a second point light's slot
+    would need its own ``d²``; a light grid finer than the data is not on its samples: the frame is
+    the bake's, bit for bit."""
     lights = None
-    kw = {}
     if case == "grey_single_light":
         lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=2.0)]
-    elif case == "point_and_directional":
-        lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0)), DIRECTIONAL]
+    elif case == "two_point_lights":
+        lights = [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0)),
+                  pa.PointLight((-0.3, 0.2, 0.0), intensity=(1.0, 2.0, 1.0))]
     r = renderer(lights)
-    model = {"grey_single_light": "single_scattering", "diffusion": "diffusion"}.get(case, "ambient_scattering")
+    model = "single_scattering" if case == "grey_single_light" else "ambient_scattering"
     if case == "refined_grid":
         monkeypatch.setenv("PV_AMBIENT_RECORD", "1")
         res = r.render(camera=CAM, window_size=SIZE, model=model, light_resolution=2.0, quality="preview",
@@ -128,6 +134,6 @@ def test_the_bake_where_the_record_does_not_apply(case, monkeypatch):
                        progress_bar=False)
         assert np.array_equal(res.radiance, ref.radiance)
         return
-    old, _ = render(r, monkeypatch, False, model, **kw)
-    new, m = render(r, monkeypatch, True, model, **kw)
-    assert RECORD not in m and np.array_equal(old.radiance, new.radiance)
+    old, _ = render(r, monkeypatch, False, model)
+    new, m = render(r, monkeypatch, True, model)
+    assert RECORD not in m and RECORD_PAIR not in m and np.array_equal(old.radiance, new.radiance)
