@@ -275,9 +275,10 @@ def count_samples(view, medium, step, ert, W, H, counts, trans):
 
 
 def march_records(renderer, camera, size):
-    """The ray cast's View and Medium records of ``camera`` at ``size``."""
+    """The ray cast's View and Medium records of ``camera`` at ``size`` (its own majorant grid: the
+    blocks it skips, docs/performance.rst, "Empty space")."""
     return (K.view_of(camera, size, renderer.geometry),
-            K.medium_of(renderer.optics, renderer.stages.majorant(), MAJORANT_BLOCK))
+            K.medium_of(renderer.optics, renderer.stages.cast_majorant(), MAJORANT_BLOCK))
 
 
 def sample_counts(renderer, camera, size, step, ert=ERT):
@@ -366,8 +367,8 @@ def check_count(n=48, size=(48, 40)):
     for name, tf in cases.items():
         r = pa.Renderer(grid, transfer_function=tf)
         step = r.default_step()
-        maj = r.stages.majorant()
-        lines.append(f"  TF {name}: {int((maj <= 0).sum())} of {maj.size} majorant blocks empty")
+        maj = r.stages.cast_majorant()
+        lines.append(f"  TF {name}: {int((maj <= 0).sum())} of {maj.size} of the ray cast's majorant blocks empty")
         for deg in (0.0, 37.0, 101.0):
             cam = scenes.orbit(base, deg)
             c_numba, T_numba = sample_counts(r, cam, size, step)
@@ -602,8 +603,13 @@ def packet_line():
     pol = load_policy()
     if not packet.enabled():
         return "camera pass: the scalar driver everywhere (PV_AMBIENT_PACKETS=0)"
+    from pv_ambient.rendering import record
+
+    lit = ("rgb bakes on the data samples through the lit record (docs/performance.rst)" if record.enabled()
+           else "the lit record off (PV_AMBIENT_RECORD=0)")
     return (f"camera pass: emission-absorption and baked single/ambient scattering and diffusion of a table TF in packets of "
-            f"{packet.LANES} rays, loads {pol['loads']}, vectors {pol['width']} ({pol['why']}); the others one ray at a time")
+            f"{packet.LANES} rays, loads {pol['loads']}, vectors {pol['width']} ({pol['why']}), {lit}; the others one ray "
+            f"at a time")
 
 
 def command_line():
