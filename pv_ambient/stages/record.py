@@ -32,7 +32,7 @@ def light_record(field, lights, grid, index_to_world, ref):
 
 def packed_light_record(medium, lights, grid, index_to_world, ref):
     """:func:`light_record` packed (:func:`pv_ambient.stages.draft.pack_record`): ``(words, codes,
-    scale, lut)``. The march keeps the data's majorant grid: its empty blocks, and so the samples
+    scale, lut)``. The march keeps the frame's majorant grid: its empty blocks, and so the samples
     a ray takes, stay those of the frame the record replaces."""
     rec = light_record(medium.field, lights, grid, index_to_world, ref)
     return pack_record(rec, medium.table.shape[0], medium.lut_lo, medium.lut_inv)
