@@ -137,3 +137,25 @@ def test_the_bake_where_the_record_does_not_apply(case, monkeypatch):
     old, _ = render(r, monkeypatch, False, model)
     new, m = render(r, monkeypatch, True, model)
     assert RECORD not in m and RECORD_PAIR not in m and np.array_equal(old.radiance, new.radiance)
+
+
+@pytest.mark.parametrize("kind", [RECORD, RECORD_PAIR])
+def test_one_and_two_threads_render_the_record_bit_for_bit(kind, monkeypatch):
+    """Each pixel's ray is marched by one thread whatever the count: 1 and 2 threads, the same bits."""
+    import numba
+
+    r = renderer(None if kind == RECORD else [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0)),
+                                              DIRECTIONAL])
+    n0 = numba.get_num_threads()
+    out = []
+    try:
+        for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+            numba.set_num_threads(threads)
+            res, m = render(r, monkeypatch, True)
+            assert set(m) == {kind}
+            out.append(res)
+    finally:
+        numba.set_num_threads(n0)
+    for res in out[1:]:
+        np.testing.assert_array_equal(res.radiance, out[0].radiance)
+        np.testing.assert_array_equal(res.alpha, out[0].alpha)
