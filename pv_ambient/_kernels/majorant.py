@@ -26,24 +26,32 @@ from ._jit import driver, prange, scalar
 from .medium import MODE_GRID, lut_coords
 
 
+@scalar(inline=True)
+def block_range(field, a, b, c, block):
+    """The least and the greatest value of ``field`` over block (a, b, c) of ``block``³ samples — its
+    samples and those on its upper faces (this module's docstring)."""
+    nx, ny, nz = field.shape
+    smin = math.inf
+    smax = -math.inf
+    for i in range(a * block, min((a + 1) * block, nx - 1) + 1):  # C order: k innermost
+        for j in range(b * block, min((b + 1) * block, ny - 1) + 1):
+            for k in range(c * block, min((c + 1) * block, nz - 1) + 1):
+                v = field[i, j, k]
+                if v < smin:
+                    smin = v
+                if v > smax:
+                    smax = v
+    return smin, smax
+
+
 @driver
 def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
-    nx, ny, nz = field.shape
     mx, my, mz = out.shape
     n = table.shape[0]
     for c in prange(mz):
         for b in range(my):
             for a in range(mx):
-                smin = math.inf
-                smax = -math.inf
-                for i in range(a * block, min((a + 1) * block, nx - 1) + 1):  # C order: k innermost
-                    for j in range(b * block, min((b + 1) * block, ny - 1) + 1):
-                        for k in range(c * block, min((c + 1) * block, nz - 1) + 1):
-                            v = field[i, j, k]
-                            if v < smin:
-                                smin = v
-                            if v > smax:
-                                smax = v
+                smin, smax = block_range(field, a, b, c, block)
                 if mode == MODE_GRID:
                     out[a, b, c] = smax
                 else:
@@ -66,22 +74,12 @@ def build_cast_majorant(mode, field, table, lut_lo, lut_inv, block, sigma_min, o
     takes every entry the two touch: a block of scalars that are zero but for denormal rounding
     is empty here and not there. The path tracer's delta tracking keeps :func:`build_majorant`
     (it needs a bound, not the ray cast's skip)."""
-    nx, ny, nz = field.shape
     mx, my, mz = out.shape
     n = table.shape[0]
     for c in prange(mz):
         for b in range(my):
             for a in range(mx):
-                smin = math.inf
-                smax = -math.inf
-                for i in range(a * block, min((a + 1) * block, nx - 1) + 1):  # C order: k innermost
-                    for j in range(b * block, min((b + 1) * block, ny - 1) + 1):
-                        for k in range(c * block, min((c + 1) * block, nz - 1) + 1):
-                            v = field[i, j, k]
-                            if v < smin:
-                                smin = v
-                            if v > smax:
-                                smax = v
+                smin, smax = block_range(field, a, b, c, block)
                 if mode == MODE_GRID:
                     m = np.float64(smax)
                 else:
