@@ -68,9 +68,9 @@ def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
 def build_cast_majorant(mode, field, table, lut_lo, lut_inv, block, sigma_min, out):
     """The ray cast's majorant grid: :func:`build_majorant`'s blocks, each the largest σt a sample
     in it can take, and 0 where that is at most ``sigma_min`` (a negligible σt: the caller's). In
-    LUT mode the σt of an interpolated scalar is
-    piecewise linear in it, so its largest over the block's scalars is the table interpolated at
-    the least and the greatest scalar or an entry between them — where :func:`build_majorant`
+    LUT mode the σt of an interpolated scalar is piecewise linear in it, so its largest over the
+    block's scalars is the table interpolated at the least and the greatest scalar or an entry
+    between them — where :func:`build_majorant`
     takes every entry the two touch: a block of scalars that are zero but for denormal rounding
     is empty here and not there. The path tracer's delta tracking keeps :func:`build_majorant`
     (it needs a bound, not the ray cast's skip)."""
