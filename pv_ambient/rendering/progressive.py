@@ -51,17 +51,19 @@ def _view_key(renderer, req, base, base_options) -> tuple:
 
 def _control(renderer, req, records):
     """The control picture N' (docs/progressive.rst): the base model's records marched at
-    ``CONTROL_STEP_FRACTION`` of the step, point lights' I/d² clamped at the equiangular radius
-    (the path tracer samples the singular part near a light; the control stays smooth there; for a
-    light farther than that radius from the box the clamp changes nothing). Returns the picture
-    and the records it was marched with."""
+    ``CONTROL_STEP_FRACTION`` of the step, with the table corrected for that step (a full step
+    reads its opacity, :func:`pv_ambient._kernels.medium.step_table`), point lights' I/d² clamped
+    at the equiangular radius (the path tracer samples the singular part near a light; the control
+    stays smooth there; for a light farther than that radius from the box the clamp changes
+    nothing). Returns the picture and the records it was marched with."""
     args = list(records[0])
     lrec = args[4]
     rc = EQ_RADIUS * renderer.geometry.diagonal
     points = np.asarray(lrec.vec)[np.asarray(lrec.kind) == POINT]
     if len(points) and rc * rc > lrec.d2min and float(np.min(renderer.geometry.distance_to(points))) < rc:
         args[4] = lrec._replace(d2min=rc * rc)
-    args[2] = args[2]._replace(step=args[2].step * CONTROL_STEP_FRACTION)
+    step = args[2].step * CONTROL_STEP_FRACTION  # the step-corrected table goes with the step
+    args[2] = args[2]._replace(step=step, opacity=renderer.stages.step_opacity(step))
     args = tuple(args)
     w, h = req.window_size
     image = np.zeros((h, w, 3), np.float32)

@@ -50,6 +50,37 @@ def test_no_scattering_residual_is_exactly_zero():
     assert res.metadata["spp"] == 8 and res.metadata["model"] == "progressive"
 
 
+def test_control_of_a_baked_table_march_is_the_base_at_the_control_step(monkeypatch):
+    """The control picture is the base model marched at ``CONTROL_STEP_FRACTION`` of the step with
+    the table corrected for that step: with the light far from the box (nothing clamped) it equals
+    the base model rendered at that step, to float32 rounding. Diffusion's baked march of a table
+    TF reads a full step's opacity from the step-corrected table; a control that kept the base
+    step's table was 38 % too bright on the lit-inside scene and biased every progressive
+    picture."""
+    import pv_ambient.backend as bmod
+    from pv_ambient.rendering.presets import ACCURATE_DIFFUSION, CONTROL_STEP_FRACTION
+
+    marched = {}
+    real = bmod.run_raycast
+
+    def spy(args, image, alpha, **kw):
+        out = real(args, image, alpha, **kw)
+        marched[kw.get("name")] = (args, image.copy())
+        return out
+
+    monkeypatch.setattr(bmod, "run_raycast", spy)
+    tf = {"kind": "colormap", "cmap": "magma", "clim": [0.0, 1.0], "opacity": "linear", "albedo": 0.8,
+          "emission": 0.2, "opacity_unit_distance": 0.3}
+    r = pa.Renderer(datasets.supernova(n=16), transfer_function=tf, lights=[pa.PointLight((0.3, 0.2, 3.5), 8.0)])
+    kw = dict(window_size=SIZE, step=0.06)
+    r.render(model="progressive", samples_per_pixel=2, seed=1, **kw)
+    args, control = marched["ray cast (control)"]
+    assert args[5].baked and args[2].opacity.shape[0] > 1  # the baked march of a step-corrected table
+    fine = r.render(model="diffusion", **dict(kw, step=0.06 * CONTROL_STEP_FRACTION), **ACCURATE_DIFFUSION)
+    assert fine.radiance.max() > 0.05
+    np.testing.assert_allclose(control, fine.radiance, rtol=1e-5, atol=1e-6 * fine.radiance.max())
+
+
 def test_zero_samples_is_the_base_picture():
     r, g = _cloud()
     # the default base at quality "balanced": diffusion with the transport sweeps and flux limiting
