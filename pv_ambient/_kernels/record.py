@@ -128,27 +128,68 @@ def pair_light(rec, ref, x, y, z, wx, wy, wz):
     return pr * w + dr * sd, pg * w + dg * sd, pb * w + db * sd
 
 
+@scalar(force_inline=True)
+def node_light(lights, grid, i2w, ref, i, j, k):
+    """The lit record's light (rgb, float32) at data sample (i, j, k): the baked in-scattered light
+    (:func:`.baked.baked_light` of the frame's ``lights`` and light grid ``grid``, whose nodes are the
+    data samples) times ``max(d², d2min)`` to the reference point, light 0 of ``ref``; ``i2w`` the
+    data's index → world affine map."""
+    x = np.float64(i)
+    y = np.float64(j)
+    z = np.float64(k)
+    wx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 2] * z + i2w[0, 3]
+    wy = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 2] * z + i2w[1, 3]
+    wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
+    lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+    w = np.float32(1.0) / point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
+    return np.float32(lr * w), np.float32(lg * w), np.float32(lb * w)
+
+
+@scalar(inline=True)
+def finite_max(best, v):
+    """The larger of ``best`` and ``v`` where ``v`` is finite (float64)."""
+    v = np.float64(v)
+    return v if math.isfinite(v) and v > best else best
+
+
 @driver
-def light_nodes(field, lights, grid, i2w, ref, out):
-    """Shade the lit record ``out`` (float32 ``field.shape + (4,)``: scalar, light rgb) at every data
-    sample: the scalar, and the baked in-scattered light (:func:`.baked.baked_light` of the frame's
-    ``lights`` and light grid ``grid``, whose nodes are the data samples) times ``max(d², d2min)``
-    to the reference point, light 0 of ``ref``; ``i2w`` the data's index → world affine map."""
+def light_tops(field, lights, grid, i2w, ref, tops):
+    """Per plane ``i`` of the data samples, the largest finite channel of :func:`node_light`
+    (at least 0; float64 ``tops``, one per plane): the lit record's scale is their maximum. The
+    light is shaded again when packed (:func:`pack_light_nodes`) instead of held: a shaded copy
+    would be four float32 values per data sample at the first frame's peak."""
+    for i in prange(field.shape[0]):
+        best = 0.0
+        for j in range(field.shape[1]):
+            for k in range(field.shape[2]):
+                r, g, b = node_light(lights, grid, i2w, ref, i, j, k)
+                best = finite_max(finite_max(finite_max(best, r), g), b)
+        tops[i] = best
+
+
+@scalar(inline=True)
+def scalar_code(s, m, lut_lo, lut_inv):
+    """The 16-bit code of scalar ``s``: its table coordinate ``u = (s − lut_lo)·lut_inv`` over
+    [−m, 2m] (:func:`pv_ambient.stages.draft.pack_record`)."""
+    u = (np.float64(s) - lut_lo) * lut_inv
+    c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
+    return np.uint32(math.floor(c * CODE + 0.5))
+
+
+@driver
+def pack_light_nodes(field, lights, grid, i2w, ref, m, lut_lo, lut_inv, top, out, codes):
+    """Shade and pack the lit record ``out`` (uint32 ``field.shape + (2,)``) of scalar ``field``:
+    :func:`scalar_code` and :func:`node_light`'s square-root codes over ``top`` — words ``s | r``,
+    ``g | b``, as :func:`pack_nodes` packs a shaded record; ``codes`` (float32, ``field.shape``)
+    receives the scalar codes (the scalar pass's field)."""
     for i in prange(out.shape[0]):
-        x = np.float64(i)
         for j in range(out.shape[1]):
-            y = np.float64(j)
             for k in range(out.shape[2]):
-                z = np.float64(k)
-                wx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 2] * z + i2w[0, 3]
-                wy = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 2] * z + i2w[1, 3]
-                wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
-                lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
-                w = np.float32(1.0) / point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
-                out[i, j, k, 0] = field[i, j, k]
-                out[i, j, k, 1] = lr * w
-                out[i, j, k, 2] = lg * w
-                out[i, j, k, 3] = lb * w
+                r, g, b = node_light(lights, grid, i2w, ref, i, j, k)
+                qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
+                out[i, j, k, 0] = qs | (_code(r, top) << np.uint32(16))
+                out[i, j, k, 1] = _code(g, top) | (_code(b, top) << np.uint32(16))
+                codes[i, j, k] = np.float32(qs)
 
 
 @driver
@@ -159,9 +200,7 @@ def pack_nodes(rec, m, lut_lo, lut_inv, top, out):
     for i in prange(rec.shape[0]):
         for j in range(rec.shape[1]):
             for k in range(rec.shape[2]):
-                u = (np.float64(rec[i, j, k, 0]) - lut_lo) * lut_inv
-                c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
-                qs = np.uint32(math.floor(c * CODE + 0.5))
+                qs = scalar_code(rec[i, j, k, 0], m, lut_lo, lut_inv)
                 qr = _code(rec[i, j, k, 1], top)
                 qg = _code(rec[i, j, k, 2], top)
                 qb = _code(rec[i, j, k, 3], top)
@@ -170,22 +209,38 @@ def pack_nodes(rec, m, lut_lo, lut_inv, top, out):
 
 
 @driver
-def pack_pair_nodes(field, inc, m, lut_lo, lut_inv, top_p, top_d, out):
+def slot_tops(inc, tops):
+    """Per plane ``i``, the largest finite value (at least 0) of bake ``inc``'s channels 0–2 and of
+    its channels 3–5 (float64 ``tops``, ``(m0, 2)``): a pair record's two scales, without a float64
+    copy of the bake."""
+    for i in prange(inc.shape[0]):
+        bp = 0.0
+        bd = 0.0
+        for j in range(inc.shape[1]):
+            for k in range(inc.shape[2]):
+                for c in range(3):
+                    bp = finite_max(bp, inc[i, j, k, c])
+                    bd = finite_max(bd, inc[i, j, k, 3 + c])
+        tops[i, 0] = bp
+        tops[i, 1] = bd
+
+
+@driver
+def pack_pair_nodes(field, inc, m, lut_lo, lut_inv, top_p, top_d, out, codes):
     """Pack a pair record (uint32 ``out``, ``field.shape + (4,)``) from scalar ``field`` and a bake
     ``inc`` of two rgb slots on the data samples (the point light's, channels 0–2; the other's,
-    3–5): the scalar's code as :func:`pack_nodes` writes it, then the point slot's square-root
-    codes over ``top_p`` and the other slot's over ``top_d`` — words ``s | Pr``, ``Pg | Pb``,
-    ``Dr | Dg``, ``Db``."""
+    3–5): :func:`scalar_code`, then the point slot's square-root codes over ``top_p`` and the other
+    slot's over ``top_d`` — words ``s | Pr``, ``Pg | Pb``, ``Dr | Dg``, ``Db``; ``codes`` (float32,
+    ``field.shape``) receives the scalar codes."""
     for i in prange(out.shape[0]):
         for j in range(out.shape[1]):
             for k in range(out.shape[2]):
-                u = (np.float64(field[i, j, k]) - lut_lo) * lut_inv
-                c = min(max((u + m) / (3.0 * m), 0.0), 1.0)
-                qs = np.uint32(math.floor(c * CODE + 0.5))
+                qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
                 out[i, j, k, 0] = qs | (_code(inc[i, j, k, 0], top_p) << np.uint32(16))
                 out[i, j, k, 1] = _code(inc[i, j, k, 1], top_p) | (_code(inc[i, j, k, 2], top_p) << np.uint32(16))
                 out[i, j, k, 2] = _code(inc[i, j, k, 3], top_d) | (_code(inc[i, j, k, 4], top_d) << np.uint32(16))
                 out[i, j, k, 3] = _code(inc[i, j, k, 5], top_d)
+                codes[i, j, k] = np.float32(qs)
 
 
 @scalar(inline=True)

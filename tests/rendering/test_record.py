@@ -99,6 +99,48 @@ def test_record_light_is_the_bakes_slot(monkeypatch):
     assert np.array_equal(lights.vec[0], ref.vec[0]) and ref.d2min == lights.d2min
 
 
+@pytest.mark.parametrize("lights", ["point", "both"])
+def test_packing_holds_no_shaded_copy(lights, monkeypatch):
+    """Packing a record allocates its words and scalar codes and nothing of the volume's size
+    beside them (NumPy's allocations, traced): 12 bytes per data sample for the one-slot record,
+    20 for the pair — a shaded float32 copy (16 bytes per sample) or a float64 copy of the bake's
+    slots would more than double that at the first frame's peak. The words are the ones the
+    renderer packed."""
+    import tracemalloc
+
+    from pv_ambient.rendering import record as rmod
+    from pv_ambient.stages.record import packed_light_record, packed_pair_record
+
+    calls = []
+    real = rmod._record
+
+    def spy(renderer, args, ref, kind):
+        calls.append((renderer, args, ref, kind, real(renderer, args, ref, kind)))
+        return calls[-1][-1]
+
+    monkeypatch.setattr(rmod, "_record", spy)
+    lt = {"point": None, "both": [pa.PointLight((0.1, -0.05, 0.1), intensity=(3.0, 2.0, 1.0)), DIRECTIONAL]}[lights]
+    render(renderer(lt), monkeypatch, True)
+    r, args, ref, kind, packed = calls[-1]
+    assert kind == (RECORD if lights == "point" else RECORD_PAIR)
+    medium, grid = args[3], args[5]
+    n = medium.field.size
+    tracemalloc.start()
+    try:
+        if kind == RECORD:
+            words, codes, _, _ = packed_light_record(medium, args[4], grid, r.geometry.index_to_world, ref)
+        else:
+            words, codes, _, _ = packed_pair_record(medium, grid)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    held = words.nbytes + codes.nbytes
+    assert held == n * (12 if kind == RECORD else 20)
+    assert peak <= held + 0.5 * 4 * n, (peak, held)
+    np.testing.assert_array_equal(words, packed[0])
+    np.testing.assert_array_equal(codes, packed[1])
+
+
 @pytest.mark.parametrize("kind", [RECORD, RECORD_PAIR])
 def test_scalar_fallback_reads_the_record(kind, monkeypatch):
     """``PV_AMBIENT_PACKETS=0`` marches the same record one ray at a time: the packets' image."""
