@@ -163,17 +163,12 @@ class Renderer:
         if request.model != "auto":
             return request.model, {}
         grid = self.stages.light_grid(request.light_resolution)
+        if request.time_budget is not None:
+            return self._budget_choice(request, grid)
         if not self.stages.active_lights(self.lights, grid, request.backend):
             model = "single_scattering"  # nothing scatters, or no light reaches what does: no light volume is kept
         else:
             model = "ambient_scattering" if request.quality == "preview" else "diffusion"
-        if request.time_budget is not None and model != "single_scattering":
-            from ..stages.denoise import available
-
-            extra = {"time_limit": request.time_budget, "denoise": request.options.get("denoise", available())}
-            if "samples_per_pixel" not in request.explicit:
-                extra["samples_per_pixel"] = BUDGET_MAX_SPP
-            return "path_traced", extra
         sweeps = None
         if model == "diffusion" and request.quality == "accurate":
             sweeps = ACCURATE_DIFFUSION
@@ -183,6 +178,22 @@ class Renderer:
         if sweeps is None:
             return model, {}
         return model, {k: request.options.get(k, v) for k, v in sweeps.items()}  # the caller's options first
+
+    def _budget_choice(self, request, grid) -> tuple:
+        """``auto`` with a time budget (rule 5 of :meth:`render`): the path tracer, unless nothing
+        scatters or no light has power — rules 1 and 3 by the checks that need no light volume. A
+        light behind an opaque wall (rule 2) is not looked for: finding it takes a light sweep per
+        light, a large share of a budget of a fraction of a second, where the path tracer's shadow
+        rays find it dark at a cost that grows with the samples (docs/trade.rst, "At a time
+        budget")."""
+        from ..stages.denoise import available
+
+        if not (self.stages.scatters(grid) and any(max(lt.power) > 0.0 for lt in self.lights)):
+            return "single_scattering", {}
+        extra = {"time_limit": request.time_budget, "denoise": request.options.get("denoise", available())}
+        if "samples_per_pixel" not in request.explicit:
+            extra["samples_per_pixel"] = BUDGET_MAX_SPP
+        return "path_traced", extra
 
     def render(self, *, camera=None, window_size=None, model="emission_absorption", quality="balanced", step=None,
                jitter=False, seed=0, background=(0.0, 0.0, 0.0), early_termination=ERT, phase=None,
@@ -255,6 +266,9 @@ class Renderer:
                denoised path tracer usually reaches a noise-free model's error sooner than that
                model's first frame (docs/trade.rst). The denoiser's time (one
                emission–absorption frame for its guide, then OIDN) comes on top of the budget.
+               Of rules 1–3 only those that need no light volume apply (nothing scatters, or no
+               light has power: ``single_scattering``); a light behind an opaque wall is not
+               swept for. For the best picture at a budget install the ``denoise`` extra.
         quality : {"preview", "balanced", "accurate"}, default: "balanced"
             Preset for the knobs not given explicitly (``QUALITY_PRESETS``): ray step 1, ½, ¼ of
             the smallest grid spacing; light grid 1×, docs/ambient_scattering.rst §3's default, ≥ 2× the data

@@ -250,13 +250,17 @@ class SceneStages:
 
         return self.cache.get(("scattering_nodes", grid.key()), lambda: scattering_nodes(self.optics, grid))
 
+    def scatters(self, grid) -> bool:
+        """Whether anything scatters: σt·albedo > 0 at some data sample (cached per light grid)."""
+        return self.cache.get(("scatters", grid.key()), lambda: bool(self.scattering_nodes(grid).any()))
+
     def active_lights(self, lights, grid, backend="cpu"):
         """The lights of ``lights`` that reach the scattering medium — the one place that decides
         whether a light matters: none when nothing scatters (σt·albedo = 0 everywhere: no light
         volume is built), else those of non-zero power whose optical depth is at most
         ``TAU_OPAQUE`` at some node next to a sample that scatters (cached with the light: not
         repeated at every camera move)."""
-        if not self.cache.get(("scatters", grid.key()), lambda: bool(self.scattering_nodes(grid).any())):
+        if not self.scatters(grid):
             return ()
         out = []
         for lt in lights:

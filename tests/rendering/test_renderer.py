@@ -102,6 +102,17 @@ def test_choose_model_decides_auto_and_leaves_other_models_alone():
     dark = pa.Renderer(datasets.cloud(n=12), lights=())
     assert dark.choose_model(dark.request(camera=cam, window_size=(8, 6), model="auto", time_budget=0.5)) == (
         "single_scattering", {})
+    off = pa.Renderer(datasets.cloud(n=12), lights=[pa.PointLight((0, 0, 2), 0.0)])  # no power: rule 3
+    assert off.choose_model(off.request(camera=cam, window_size=(8, 6), model="auto", time_budget=0.5))[0] == (
+        "single_scattering")
+    # with a budget no light volume is swept to choose (a light behind an opaque wall is left to
+    # the path tracer's shadow rays); without one, the choice sweeps each light once
+    fresh = pa.Renderer(datasets.cloud(n=12), lights=[pa.PointLight((0, 0, 2), 3.0)])
+    assert fresh.choose_model(fresh.request(camera=cam, window_size=(8, 6), model="auto", time_budget=0.5))[0] == (
+        "path_traced")
+    assert "tau" not in fresh.cache.kinds()
+    fresh.choose_model(fresh.request(camera=cam, window_size=(8, 6), model="auto"))
+    assert "tau" in fresh.cache.kinds()
 
 
 def test_default_step_is_the_presets_fraction_of_the_finest_spacing():
