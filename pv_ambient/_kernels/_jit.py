@@ -87,8 +87,8 @@ def _simulator() -> bool:
 def cuda_options(device=False, inline=False) -> dict:
     """``numba.cuda.jit``'s options for a kernel (``device=False``: Numba's disk cache on) or a device
     function (``inline``: inlined by NVVM, ``forceinline``): the CPU's fastmath set, so the GPU
-    computes what the CPU computes (docs/architecture.rst, "One kernel per model"). The simulator takes
-    neither ``forceinline`` nor a cache."""
+    computes what the CPU computes (docs/architecture.rst, "One kernel per model"), the float32
+    branches of :data:`ON_GPU` aside. The simulator takes neither ``forceinline`` nor a cache."""
     opts = dict(fastmath=set(FASTMATH))
     if device:
         opts["device"] = True
