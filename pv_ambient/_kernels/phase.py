@@ -59,29 +59,29 @@ def phase_eval(kind, g, cos_theta):
 
 @scalar(inline=True)
 def phase_in(F, kind, g, cos_theta):
-    """:func:`phase_eval` computed in the float type ``F`` (``np.float64``, or ``np.float32`` with
-    ``g`` and ``cos_theta`` float32): the one formula of each kind, its constants of type ``F``.
-    Why a type argument: Numba widens a float32 combined with a float64 constant to float64, so a
-    float32 evaluation needs its constants written as ``F(...)``; the CUDA ray cast evaluates each
-    light's phase function in float32 (:func:`.raycast.direct_light_one`)."""
+    """:func:`phase_eval` with its square root and division in the float type ``F`` (``np.float64``
+    or ``np.float32``) and the rest in the arguments' precision: the one formula of each kind.
+    Why: the CUDA ray cast evaluates each light's phase function with float32 for those two
+    (:func:`.raycast.direct_light_one`; in float64 a GPU calls slow paths for them) but from float64
+    arguments, as ``1 − gμ`` cancels near a forward-scattering peak, where float32 would lose about
+    ``1/(1 − |g|)`` ulps."""
     # Clamp the cosine: dot products of unit vectors may overshoot ±1 by a few ulps.
-    one = F(1.0)
-    mu = min(max(cos_theta, -one), one)
+    mu = min(max(cos_theta, -1.0), 1.0)
     if kind == HENYEY_GREENSTEIN:
         # Clamp |g| (construction rejects |g| >= 1; this only keeps 1 − g² > 0 for kernels).
-        gc = min(max(g, F(-G_MAX)), F(G_MAX))
+        gc = min(max(g, -G_MAX), G_MAX)
         # Write 1 + g² − 2gμ as (1 − gμ)² + g²(1 − μ²): two non-negative terms, no
         # cancellation near gμ → 1, and never below (1 − |g|)² > 0.
-        a = one - gc * mu
-        d = a * a + gc * gc * (one - mu) * (one + mu)
-        return F(INV_4PI) * (one - gc) * (one + gc) / (d * math.sqrt(d))
+        a = 1.0 - gc * mu
+        d = F(a * a + gc * gc * (1.0 - mu) * (1.0 + mu))
+        return F(INV_4PI * (1.0 - gc) * (1.0 + gc)) / (d * math.sqrt(d))
     if kind == SCHLICK:
         # (1 − kμ)² is smallest at μ = 1 for k > 0: forward scattering, as for HG.
-        k = F(schlick_k(g))
-        a = one - k * mu
-        return F(INV_4PI) * (one - k) * (one + k) / (a * a)
+        k = schlick_k(g)
+        a = F(1.0 - k * mu)
+        return F(INV_4PI * (1.0 - k) * (1.0 + k)) / (a * a)
     if kind == RAYLEIGH:
-        return F(RAYLEIGH_NORM) * (one + mu * mu)
+        return F(RAYLEIGH_NORM * (1.0 + mu * mu))
     return F(INV_4PI)
 
 

@@ -146,7 +146,7 @@ def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     c = -(ox * dx + oy * dy + oz * dz)
     if ON_GPU:
         T = np.float64(math.exp(-trilinear32_c(tau, lx, ly, lz, l)))
-        p = np.float64(phase_in(np.float32, lights.pkind, np.float32(lights.g), np.float32(c)))
+        p = np.float64(phase_in(np.float32, lights.pkind, lights.g, c))
     else:
         T = math.exp(-trilinear_c(tau, lx, ly, lz, l))
         p = phase_eval(lights.pkind, lights.g, c)
