@@ -136,10 +136,11 @@ def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
 
 @scalar(force_inline=True)
 def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
-    """Light ``l``'s term of :func:`direct_light`: ``E_l T_l p(θ_l)`` (rgb). On the GPU the phase
-    function and the transmittance are evaluated in float32 (:data:`._jit.ON_GPU`): in float64 the
-    phase function's square root and division call slow paths, and the ``exp`` holds its polynomial's
-    constants, in registers that every thread of an unbaked lit kernel pays for."""
+    """Light ``l``'s term of :func:`direct_light`: ``E_l T_l p(θ_l)`` (rgb). On the GPU the
+    transmittance and the phase function's square root and division are float32
+    (:data:`._jit.ON_GPU`, :func:`.phase.phase_in`): in float64 the square root and the division call
+    slow paths, and the ``exp`` holds its polynomial's constants, in registers that every thread of
+    an unbaked lit kernel pays for."""
     llo, linv, tau = grid.lo, grid.inv_step, grid.tau
     er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
     lx, ly, lz = (x - llo[0]) * linv[0], (y - llo[1]) * linv[1], (z - llo[2]) * linv[2]
