@@ -33,6 +33,17 @@ FASTMATH = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
 _COMMON = dict(cache=True, error_model="numpy", fastmath=set(FASTMATH), nogil=True)
 
 
+#: ``False`` in every scalar function the CPU compiles, ``True`` in their CUDA device versions
+#: (:func:`cuda_device` binds it): the one switch by which a scalar function computes in float32 on
+#: the GPU a value that the CPU computes in float64 (``if ON_GPU: ... else: ...``). Why: a GPU
+#: thread holds a float64 in two registers and runs a float64 square root, division or ``exp`` as a
+#: long sequence (a square root and a division call a slow path whose registers every thread of a
+#: launch pays for), where the CPU pays neither — and the CPU's images must not move. Numba prunes
+#: the branch not taken (a global constant), so each target compiles only its own arithmetic. Used
+#: only where float32 keeps the GPU within the accuracy the CUDA tests hold it to
+#: (docs/architecture.rst, "One kernel per model").
+ON_GPU = False
+
 _SCALARS = {}  # py_func -> CPU dispatcher of every scalar function
 _INLINE = set()  # py_funcs of the scalar functions inlined into their callers
 _CUDA = {}  # py_func -> CUDA device function (built on first use)
@@ -76,8 +87,8 @@ def _simulator() -> bool:
 def cuda_options(device=False, inline=False) -> dict:
     """``numba.cuda.jit``'s options for a kernel (``device=False``: Numba's disk cache on) or a device
     function (``inline``: inlined by NVVM, ``forceinline``): the CPU's fastmath set, so the GPU
-    computes what the CPU computes (docs/architecture.rst, "One kernel per model"). The simulator takes
-    neither ``forceinline`` nor a cache."""
+    computes what the CPU computes (docs/architecture.rst, "One kernel per model"), the float32
+    branches of :data:`ON_GPU` aside. The simulator takes neither ``forceinline`` nor a cache."""
     opts = dict(fastmath=set(FASTMATH))
     if device:
         opts["device"] = True
@@ -100,9 +111,13 @@ def with_globals(fn, names):
 
 
 def _rebind(fn):
-    """``fn`` with its global names of scalar functions bound to their CUDA device versions."""
-    return with_globals(fn, {name: cuda_device(fn.__globals__[name]) for name in fn.__code__.co_names
-                             if is_scalar(fn.__globals__.get(name))})
+    """``fn`` with its global names of scalar functions bound to their CUDA device versions, and
+    :data:`ON_GPU` bound to ``True``."""
+    names = {name: cuda_device(fn.__globals__[name]) for name in fn.__code__.co_names
+             if is_scalar(fn.__globals__.get(name))}
+    if "ON_GPU" in fn.__code__.co_names:
+        names["ON_GPU"] = True
+    return with_globals(fn, names)
 
 
 def cuda_device(disp):

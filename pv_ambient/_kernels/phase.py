@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ._jit import driver, scalar
 
 ISOTROPIC = 0
@@ -52,6 +54,17 @@ def schlick_k(g):
 @scalar
 def phase_eval(kind, g, cos_theta):
     """Phase function value ``p(cos θ)`` [1/sr] of ``kind`` with anisotropy ``g``."""
+    return phase_in(np.float64, kind, g, cos_theta)
+
+
+@scalar(inline=True)
+def phase_in(F, kind, g, cos_theta):
+    """:func:`phase_eval` with its square root and division in the float type ``F`` (``np.float64``
+    or ``np.float32``) and the rest in the arguments' precision: the one formula of each kind.
+    Why: the CUDA ray cast evaluates each light's phase function with float32 for those two
+    (:func:`.raycast.direct_light_one`; in float64 a GPU calls slow paths for them) but from float64
+    arguments, as ``1 − gμ`` cancels near a forward-scattering peak, where float32 would lose about
+    ``1/(1 − |g|)`` ulps."""
     # Clamp the cosine: dot products of unit vectors may overshoot ±1 by a few ulps.
     mu = min(max(cos_theta, -1.0), 1.0)
     if kind == HENYEY_GREENSTEIN:
@@ -60,16 +73,16 @@ def phase_eval(kind, g, cos_theta):
         # Write 1 + g² − 2gμ as (1 − gμ)² + g²(1 − μ²): two non-negative terms, no
         # cancellation near gμ → 1, and never below (1 − |g|)² > 0.
         a = 1.0 - gc * mu
-        d = a * a + gc * gc * (1.0 - mu) * (1.0 + mu)
-        return INV_4PI * (1.0 - gc) * (1.0 + gc) / (d * math.sqrt(d))
+        d = F(a * a + gc * gc * (1.0 - mu) * (1.0 + mu))
+        return F(INV_4PI * (1.0 - gc) * (1.0 + gc)) / (d * math.sqrt(d))
     if kind == SCHLICK:
         # (1 − kμ)² is smallest at μ = 1 for k > 0: forward scattering, as for HG.
         k = schlick_k(g)
-        a = 1.0 - k * mu
-        return INV_4PI * (1.0 - k) * (1.0 + k) / (a * a)
+        a = F(1.0 - k * mu)
+        return F(INV_4PI * (1.0 - k) * (1.0 + k)) / (a * a)
     if kind == RAYLEIGH:
-        return RAYLEIGH_NORM * (1.0 + mu * mu)
-    return INV_4PI
+        return F(RAYLEIGH_NORM * (1.0 + mu * mu))
+    return F(INV_4PI)
 
 
 @scalar

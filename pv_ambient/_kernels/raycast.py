@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ._jit import driver, prange, scalar
+from ._jit import ON_GPU, driver, prange, scalar
 from .geometry import affine_point, affine_vector, camera_ray, ray_box
 from .interp import corner_lerp, locate, trilinear4, trilinear_c
 from .majorant import block_at, block_span
@@ -32,7 +32,7 @@ from .medium import (MODE_GRID, MODE_LUT, corner32, corners32, full_segment, lut
                      step_albedo_emission, step_column, step_lookup, step_opacity, trilinear32, trilinear32_c)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS, RECORD,
                      RECORD_PAIR, SINGLE_SCATTERING)
-from .phase import phase_eval
+from .phase import phase_eval, phase_in
 from .record import pair_light, record_light
 from .preint import albedo_coord, tau_coord, theta_coord
 from .rng import uniform
@@ -136,11 +136,21 @@ def direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
 
 @scalar(force_inline=True)
 def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
-    """Light ``l``'s term of :func:`direct_light`: ``E_l T_l p(θ_l)`` (rgb)."""
+    """Light ``l``'s term of :func:`direct_light`: ``E_l T_l p(θ_l)`` (rgb). On the GPU the
+    transmittance and the phase function's square root and division are float32
+    (:data:`._jit.ON_GPU`, :func:`.phase.phase_in`): in float64 the square root and the division call
+    slow paths, and the ``exp`` holds its polynomial's constants, in registers that every thread of
+    an unbaked lit kernel pays for."""
     llo, linv, tau = grid.lo, grid.inv_step, grid.tau
     er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
-    T = math.exp(-trilinear_c(tau, (x - llo[0]) * linv[0], (y - llo[1]) * linv[1], (z - llo[2]) * linv[2], l))
-    p = phase_eval(lights.pkind, lights.g, -(ox * dx + oy * dy + oz * dz))
+    lx, ly, lz = (x - llo[0]) * linv[0], (y - llo[1]) * linv[1], (z - llo[2]) * linv[2]
+    c = -(ox * dx + oy * dy + oz * dz)
+    if ON_GPU:
+        T = np.float64(math.exp(-trilinear32_c(tau, lx, ly, lz, l)))
+        p = np.float64(phase_in(np.float32, lights.pkind, lights.g, c))
+    else:
+        T = math.exp(-trilinear_c(tau, lx, ly, lz, l))
+        p = phase_eval(lights.pkind, lights.g, c)
     w = T * p
     return er * w, eg * w, eb * w
 

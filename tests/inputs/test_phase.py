@@ -392,6 +392,30 @@ def test_kernels_callable_as_scalars():
     assert kp.phase_sample_cos(kp.ISOTROPIC, 0.0, 0.75) == 0.5
 
 
+@driver(parallel=False)
+def _phase_in32_array(kind, g, mu, out):
+    for i in range(mu.shape[0]):
+        out[i] = kp.phase_in(np.float32, kind, g, mu[i])
+
+
+@pytest.mark.parametrize("kind, g", [(kp.ISOTROPIC, 0.0), (kp.RAYLEIGH, 0.0), (kp.HENYEY_GREENSTEIN, -0.9),
+                                     (kp.HENYEY_GREENSTEIN, 0.5), (kp.HENYEY_GREENSTEIN, 0.999), (kp.SCHLICK, 0.8),
+                                     (kp.SCHLICK, 0.999)])
+def test_phase_in_float32_is_phase_eval_to_float32_rounding(kind, g):
+    """``phase_in(np.float32, ...)``, the CUDA ray cast's per-light phase function, returns float32
+    and equals ``phase_eval`` to a few float32 roundings at every cosine, the forward peak of
+    ``|g| → 1`` included (there ``1 − gμ`` cancels: it stays in the arguments' float64)."""
+    mu = np.concatenate([np.linspace(-1.0, 1.0, 401), 1.0 - np.geomspace(1e-9, 1e-2, 50)])
+    out = np.zeros(mu.shape, np.float32)
+    _phase_in32_array(kind, g, mu, out)
+    exact = np.zeros(mu.shape)
+    kp.phase_eval_array(kind, g, mu, exact)
+    np.testing.assert_allclose(out, exact, rtol=1e-6)
+    kp.phase_in(np.float32, kind, g, 0.25)  # a float32 result is boxed as a float: check the type
+    returns = {str(sig.args[0]): str(sig.return_type) for sig in kp.phase_in.nopython_signatures}
+    assert returns["class(float32)"] == "float32"
+
+
 def test_hg_beyond_kernel_limit_warns_and_equals_the_limit():
     import warnings
 

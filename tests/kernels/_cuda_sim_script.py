@@ -38,6 +38,12 @@ from numba.cuda.simulator.kernel import FakeCUDAKernel  # noqa: E402
 from pv_ambient._kernels import cuda as kc  # noqa: E402
 
 out["raycast_kernels"] = sorted(kc.RAYCAST_KERNELS)
+# the float32 switch: False where the CPU compiles a scalar function, True in its device version
+from pv_ambient._kernels import raycast as kr  # noqa: E402
+from pv_ambient._kernels._jit import ON_GPU, cuda_device  # noqa: E402
+
+out["on_gpu"] = [ON_GPU, kr.direct_light_one.py_func.__globals__["ON_GPU"],
+                 cuda_device(kr.direct_light_one).fn.__globals__["ON_GPU"]]
 spec_of = {id(k): list(spec) for spec, k in kc.RAYCAST_KERNELS.items()}
 _launches = []
 _call = FakeCUDAKernel.__call__

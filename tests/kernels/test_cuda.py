@@ -119,6 +119,14 @@ def test_physics_exists_once():
         assert len(params) <= 11, fn
 
 
+def test_float32_switch_is_bound_on_the_gpu_only(sim):
+    """``_jit.ON_GPU`` is False in the scalar functions the CPU compiles and True in their CUDA device
+    versions (the simulator's here): the GPU's float32 branches (the per-light phase function and
+    transmittance) run only there, and the CPU's images are those of its float64 branch."""
+    out, _ = sim
+    assert out["on_gpu"] == [False, False, True]
+
+
 def test_one_kernel_per_specialisation(sim):
     """The CUDA side compiles one ray-cast kernel per specialisation (model, baked lights, medium
     mode), the CPU one driver per model, and each model's render launched its own kernel."""
