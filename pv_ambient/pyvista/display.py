@@ -28,7 +28,7 @@ def display_to_linear(values, *, exposure=0.0, tonemap="clip", srgb=False):
     Returns
     -------
     numpy.ndarray
-        float64 linear radiance.
+        Linear radiance, float32 for float32 values, else float64.
 
     Examples
     --------
@@ -40,7 +40,8 @@ def display_to_linear(values, *, exposure=0.0, tonemap="clip", srgb=False):
     """
     exposure = check_real(exposure, "exposure")
     check_choice(tonemap, "tonemap", TONEMAPS)
-    x = np.clip(np.asarray(values, dtype=np.float64), 0.0, 1.0)
+    x = np.clip(_floats(values), 0.0, 1.0)
+    dtype = x.dtype
     if srgb:
         x = np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
     if tonemap == "reinhard":
@@ -51,7 +52,7 @@ def display_to_linear(values, *, exposure=0.0, tonemap="clip", srgb=False):
         y = tonemap_values(knots, "aces")
         top = int(np.argmax(y >= 1.0)) + 1 if (y >= 1.0).any() else y.size
         x = np.interp(x, y[:top], knots[:top])
-    return x / 2.0 ** exposure
+    return (x / 2.0 ** exposure).astype(dtype, copy=False)
 
 
 def display_values(x, *, exposure=0.0, tonemap="clip", srgb=False):
@@ -65,5 +66,12 @@ def display_values(x, *, exposure=0.0, tonemap="clip", srgb=False):
     >>> display_values([0.25, 0.5, 2.0], exposure=1.0).tolist()
     [0.5, 1.0, 1.0]
     """
-    x = tonemap_values(np.asarray(x, dtype=np.float64) * 2.0 ** check_real(exposure, "exposure"), tonemap)
+    x = tonemap_values(_floats(x) * 2.0 ** check_real(exposure, "exposure"), tonemap)
     return srgb_encode(x) if srgb else x
+
+
+def _floats(values):
+    """``values`` as a float array: float32 stays float32 (a picture's radiance is float32, and
+    a frame in a plotter is converted on every camera move), anything else becomes float64."""
+    x = np.asarray(values)
+    return x if x.dtype == np.float32 else x.astype(np.float64)

@@ -32,15 +32,16 @@ def is_opaque_mesh(actor):
 
 def background_image(renderer, size):
     """``(H, W, 3)`` display colour of a ``vtkRenderer``'s background at ``size`` (VTK's gradient,
-    bottom colour to top colour, when the renderer has one), top row first."""
+    bottom colour to top colour, when the renderer has one), top row first: a read-only float32
+    view of one colour per row (what every frame a plotter composites reads, never copied)."""
     w, h = size
-    bottom = np.array(renderer.GetBackground(), dtype=np.float64)
+    bottom = np.array(renderer.GetBackground(), dtype=np.float32)
     if renderer.GetGradientBackground():
-        top = np.array(renderer.GetBackground2(), dtype=np.float64)
-        t = ((h - 1 - np.arange(h) + 0.5) / h)[:, None]  # 0 at the bottom row, top row first
+        top = np.array(renderer.GetBackground2(), dtype=np.float32)
+        t = ((h - 1 - np.arange(h, dtype=np.float32) + 0.5) / h)[:, None]  # 0 at the bottom row, top row first
         rows = bottom + t * (top - bottom)
-        return np.broadcast_to(rows[:, None, :], (h, w, 3)).copy()
-    return np.broadcast_to(bottom, (h, w, 3)).copy()
+        return np.broadcast_to(rows[:, None, :], (h, w, 3))
+    return np.broadcast_to(bottom, (h, w, 3))
 
 
 def composite_over_geometry(volume, colour, coverage, *, background=(0.0, 0.0, 0.0), display=None):
@@ -96,16 +97,37 @@ def composite_over_geometry(volume, colour, coverage, *, background=(0.0, 0.0, 0
     >>> out.radiance[0].tolist(), out.alpha[0].tolist()
     ([[0.75, 0.25, 0.25], [0.25, 0.25, 0.75]], [1.0, 0.5])
     """
+    return composite_for_display(volume, colour, coverage, background=background, display=display)[0]
+
+
+def composite_for_display(volume, colour, coverage, *, background=(0.0, 0.0, 0.0), display=None):
+    """:func:`composite_over_geometry` and the uint8 picture it displays as (what
+    ``to_uint8(**display)`` of the composite gives, to the rounding), in one float32 pass: a
+    plotter composites every frame of a camera drag and uploads that picture as it is.
+    ``coverage`` may be a number (1 where a plotter's background fills the view).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pv_ambient.rendering.result import RenderResult
+    >>> from pv_ambient.pyvista.geometry import composite_for_display
+    >>> vol = RenderResult(np.full((1, 1, 3), 0.25, np.float32), np.full((1, 1), 0.5, np.float32), None)
+    >>> out, image = composite_for_display(vol, np.full((1, 1, 3), 0.5), 1.0)
+    >>> image[0, 0].tolist(), out.to_uint8()[0, 0].tolist()
+    ([128, 128, 128], [128, 128, 128])
+    """
     display = dict(display or {})
-    bg = check_rgb(background, "background")
-    cov = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)[..., None]
-    trans = 1.0 - volume.alpha.astype(np.float64)[..., None]
-    base = volume.radiance.astype(np.float64) + trans * (1.0 - cov) * bg
-    shown = np.clip(display_values(base, **display) + trans * np.asarray(colour, dtype=np.float64), 0.0, 1.0)
-    radiance = display_to_linear(shown, **display)
-    alpha = 1.0 - trans[..., 0] * (1.0 - cov[..., 0])
-    return RenderResult(radiance=radiance.astype(np.float32), alpha=alpha.astype(np.float32), camera=volume.camera,
-                        metadata=dict(volume.metadata))
+    bg = np.asarray(check_rgb(background, "background"), dtype=np.float32)
+    cov = np.clip(np.asarray(coverage, dtype=np.float32), 0.0, 1.0)[..., None]
+    trans = 1.0 - volume.alpha.astype(np.float32)[..., None]
+    uncovered = trans * (1.0 - cov)
+    shown = display_values(volume.radiance.astype(np.float32, copy=False) + uncovered * bg, **display)
+    shown += trans * np.asarray(colour, dtype=np.float32)
+    np.clip(shown, 0.0, 1.0, out=shown)
+    radiance = display_to_linear(shown, **display).astype(np.float32, copy=False)
+    alpha = np.broadcast_to(1.0 - uncovered[..., 0], trans.shape[:2]).astype(np.float32)
+    result = RenderResult(radiance=radiance, alpha=alpha, camera=volume.camera, metadata=dict(volume.metadata))
+    return result, np.round(shown * 255.0).astype(np.uint8)
 
 
 def ray_distance_from_depth(zbuffer, near, far, camera, window_size):

@@ -19,7 +19,7 @@ from ..rendering.renderer import Renderer
 from ..rendering.request import warn_unused_lights
 from ..rendering.result import DISPLAY_KEYS, RenderResult, unknown_display_keys
 from .drag import MOVING_RATE, STEP_GROW, STEP_SHRINK, DragStep  # noqa: F401
-from .geometry import (GeometryPass, background_image, composite_over_geometry, is_opaque_mesh,
+from .geometry import (GeometryPass, background_image, composite_for_display, is_opaque_mesh,
                        ray_distance_from_depth)
 from .plane import add_result_plane, write_texture
 from .refinement import Refinement
@@ -244,7 +244,7 @@ class AmbientVolume(DragStep):
 
     def _draw(self, cam, size, occluders):
         t0 = time.perf_counter()
-        ray_end = rgba = None
+        ray_end = rgba = image = None
         if occluders:
             if self.model in MONTE_CARLO:
                 raise ValueError(f"opaque geometry in the plotter cannot occlude a {self.model} volume (ray_end is "
@@ -261,9 +261,9 @@ class AmbientVolume(DragStep):
             if not self._own_background:  # the plotter's background behind the meshes
                 colour = colour + (1.0 - coverage)[..., None] * background_image(self.vtk_renderer, size)
                 coverage = np.ones_like(coverage)
-            shown = composite_over_geometry(volume, colour, coverage,
-                                            background=self.options.get("background", (0.0, 0.0, 0.0)),
-                                            display=self.display)
+            shown, image = composite_for_display(volume, colour, coverage,
+                                                 background=self.options.get("background", (0.0, 0.0, 0.0)),
+                                                 display=self.display)
             shown.metadata.update(occluders=len(occluders), time_geometry=t_geometry)
         elif self.model == "progressive" and self.interactive and self.moving:
             # the camera moves: the base model's noise-free picture (no samples); they follow at rest
@@ -277,13 +277,16 @@ class AmbientVolume(DragStep):
         if "exposure" not in self.display:  # "auto" resolved once, on the first picture: no flicker
             self.display["exposure"] = volume.display_exposure()
         if not occluders and not self._own_background:
-            shown = composite_over_geometry(volume, background_image(self.vtk_renderer, size), np.ones(size[::-1]),
-                                            display=self.display)
+            shown, image = composite_for_display(volume, background_image(self.vtk_renderer, size), 1.0,
+                                                 display=self.display)
         self.volume_result, self.result, self.ray_end, self.geometry_image = volume, shown, ray_end, rgba
-        self._show(shown)
+        self._show(shown, image)
         self.renders += 1
 
-    def _show(self, result):
+    def _show(self, result, image=None):
+        """Put ``result`` on the picture plane: ``image``, where the caller has its displayed uint8
+        already (a composite), else ``result.to_uint8(**display)``; the first picture builds the
+        plane (and its to_uint8 warns of a black picture at an explicit exposure)."""
         if self.actor is None:
             actor = add_result_plane(self.plotter, result, **self.display)
             pv.set_new_attribute(actor, "_pv_ambient_plane", True)
@@ -291,7 +294,7 @@ class AmbientVolume(DragStep):
             return
         data = pv.wrap(self.actor.GetMapper().GetInputDataObject(0, 0))
         data.points = result.plane_corners()  # the texture is written in place: no new one is built
-        write_texture(self.actor.GetTexture(), result.to_uint8(**self.display))
+        write_texture(self.actor.GetTexture(), result.to_uint8(**self.display) if image is None else image)
         self.vtk_renderer.ResetCameraClippingRange()
 
     def new_plane(self):
@@ -333,11 +336,11 @@ class AmbientVolume(DragStep):
             return False
         res = ref.add_pass(*ref.view)
         self.volume_result = self.result = res
-        size = ref.view[1]
+        size, image = ref.view[1], None
         if not self._own_background:
-            self.result = composite_over_geometry(res, background_image(self.vtk_renderer, size), np.ones(size[::-1]),
-                                                  display=self.display)
-        self._show(self.result)
+            self.result, image = composite_for_display(res, background_image(self.vtk_renderer, size), 1.0,
+                                                       display=self.display)
+        self._show(self.result, image)
         self.renders += 1
         if render:
             self.plotter.render()
