@@ -121,13 +121,13 @@ PLANE_PAD = 24
 
 
 @scalar
-def sweep_node(ic, ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG, iso,
+def sweep_node(ic, ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG, iso, flux,
                sp_c, sp_p, q_c, q_p, L_c, L_p, S_c, S_p, a0, a1, a2, a3):
     """Node ``ic`` of row ``ib`` for one direction by the general path: a characteristic that
     enters through a side face, one that lands on the previous plane's edge, and the first plane.
     ``geo`` = (a, bx, cx, nb, nc, C, P, step); ``b0, b1, fb``: the row's taps on the previous
     plane; ``dG`` the direction's first plane in ``L``/``S``; ``_c``/``_p``: this plane's and the
-    previous one's buffers (module docstring)."""
+    previous one's buffers (module docstring); ``flux``: whether ``w L ω`` is accumulated too."""
     nc = geo[4]
     C = geo[5]
     P = geo[6]
@@ -177,17 +177,19 @@ def sweep_node(ic, ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG,
         v = w * L_c[np.uint64(dG + ch * P + r + ic)]
         x = np.uint64(ch * P + r + ic)
         a0[x] += v
-        a1[x] += v * ox
-        a2[x] += v * oy
-        a3[x] += v * oz
+        if flux:
+            a1[x] += v * ox
+            a2[x] += v * oy
+            a3[x] += v * oz
 
 
 @scalar(force_inline=True)
-def sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, sp_c, sp_p, q_c, q_p, L_c, L_p, S_c, S_p, wp,
+def sweep_row(kind, g, flux, geo, ib, d, dirs, uvec, wgt, half, sp_c, sp_p, q_c, q_p, L_c, L_p, S_c, S_p, wp,
               a0, a1, a2, a3, te, twi, twn):
     """Row ``ib`` of the current plane for direction ``d`` of the group (:func:`sweep_group`): its
-    radiance into ``L_c``, ``w L`` and ``w L ω`` added to ``a0``–``a3``; the interior by the
-    vectorised stencil loops, the rest by :func:`sweep_node` (module docstring)."""
+    radiance into ``L_c``, ``w L`` added to ``a0`` and, where ``flux``, ``w L ω`` to ``a1``–``a3``;
+    the interior by the vectorised stencil loops, the rest by :func:`sweep_node` (module
+    docstring)."""
     a, bx, cx, nb, nc, C, P, step = geo
     iso = kind == ISOTROPIC
     ox = dirs[d, 0]
@@ -219,10 +221,10 @@ def sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, sp_c, sp_p, q_c, q_p, 
             lo = max(np.int64(math.floor(-dc)) + 1, 0)
             hi = max(min(np.int64(math.ceil(nc - 1 - dc)), nc), lo)
     for icu in range(lo):
-        sweep_node(np.int64(icu), ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG, iso,
+        sweep_node(np.int64(icu), ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG, iso, flux,
                    sp_c, sp_p, q_c, q_p, L_c, L_p, S_c, S_p, a0, a1, a2, a3)
     for icu in range(hi, nc):
-        sweep_node(np.int64(icu), ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG, iso,
+        sweep_node(np.int64(icu), ib, geo, half, ell, fracb, b0, b1, fb, dc, w, ox, oy, oz, dG, iso, flux,
                    sp_c, sp_p, q_c, q_p, L_c, L_p, S_c, S_p, a0, a1, a2, a3)
     if hi > lo:
         fl = np.int64(math.floor(dc))
@@ -259,11 +261,7 @@ def sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, sp_c, sp_p, q_c, q_p, 
                                         + w11 * q_p[oc + t1 + j + one])
                     v = l_in * te[tn + j] + ell * (twi[tn + j] * s_in_c + twn[tn + j] * (INV_4PI * q_c[ac + j]))
                     L_c[od + tn + j] = v
-                    v *= w
-                    a0[ac + j] += v
-                    a1[ac + j] += v * ox
-                    a2[ac + j] += v * oy
-                    a3[ac + j] += v * oz
+                    a0[ac + j] += v * w
             else:
                 for j in range(np.uint64(0), n):
                     l_in = (w00 * L_p[od + t0 + j] + w10 * L_p[od + t1 + j] + w01 * L_p[od + t0 + j + one]
@@ -272,8 +270,10 @@ def sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, sp_c, sp_p, q_c, q_p, 
                               + w11 * S_p[od + t1 + j + one])
                     v = l_in * te[tn + j] + ell * (twi[tn + j] * s_in_c + twn[tn + j] * S_c[od + tn + j])
                     L_c[od + tn + j] = v
-                    v *= w
-                    a0[ac + j] += v
+                    a0[ac + j] += v * w
+            if flux:  # a loop of its own: without the flux the loops above store a third as much
+                for j in range(np.uint64(0), n):
+                    v = L_c[od + tn + j] * w
                     a1[ac + j] += v * ox
                     a2[ac + j] += v * oy
                     a3[ac + j] += v * oz
@@ -309,16 +309,17 @@ def sweep_buffers(G, C, nb, nc, kind):
 
 
 @driver
-def sweep_group(sig, q, wu, wm, kind, g, a, sign, dirs, uvec, wgt, half, phi, F, LA, LB, SA, SB, spA, spB, qA, qB,
-                wp, a0, a1, a2, a3, te, twi, twn, P):
+def sweep_group(sig, q, wu, wm, kind, g, a, sign, dirs, uvec, wgt, half, phi, F, flux, LA, LB, SA, SB, spA, spB, qA,
+                qB, wp, a0, a1, a2, a3, te, twi, twn, P):
     """Sweep the directions ``dirs`` (G, 3) (unit, world), all with dominant index axis ``a`` and
     sign ``sign`` of their component along it, through the grid; ``uvec`` (G, 3) their
     components along the index axes in index units per world length, ``wgt`` (G,) their
     quadrature weights (sr). ``q`` (nx, ny, nz, C): isotropic source density σs E_d per channel;
     ``wu`` (nx, ny, nz, 3), ``wm`` (nx, ny, nz): the light's unit direction and its mean length
     (:func:`first_scatter_phase`); ``kind``, ``g`` the phase function. ``half``: 0 for point
-    data, 0.5 for cell data. Adds ``Σ w L`` to ``phi`` (nx, ny, nz, C) and ``Σ w L ω`` to ``F``
-    (nx, ny, nz, C, 3); the rest are the buffers of :func:`sweep_buffers`."""
+    data, 0.5 for cell data. Adds ``Σ w L`` to ``phi`` (nx, ny, nz, C) and, where ``flux``,
+    ``Σ w L ω`` to ``F`` (nx, ny, nz, C, 3; not read otherwise); the rest are the buffers of
+    :func:`sweep_buffers`."""
     n0, n1, n2 = sig.shape
     C = q.shape[3]
     G = dirs.shape[0]
@@ -351,9 +352,10 @@ def sweep_group(sig, q, wu, wm, kind, g, a, sign, dirs, uvec, wgt, half, phi, F,
                     else:
                         qA[y] = q[i, j, l, ch]
                     a0[y] = 0.0
-                    a1[y] = 0.0
-                    a2[y] = 0.0
-                    a3[y] = 0.0
+                    if flux:
+                        a1[y] = 0.0
+                        a2[y] = 0.0
+                        a3[y] = 0.0
                 if not iso:
                     wp[x] = wu[i, j, l, 0]
                     wp[x + np.uint64(P)] = wu[i, j, l, 1]
@@ -361,10 +363,10 @@ def sweep_group(sig, q, wu, wm, kind, g, a, sign, dirs, uvec, wgt, half, phi, F,
                     wp[x + np.uint64(3 * P)] = wm[i, j, l]
             for d in range(G):
                 if odd:
-                    sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, spB, spA, qB, qA, LB, LA, SB, SA, wp,
+                    sweep_row(kind, g, flux, geo, ib, d, dirs, uvec, wgt, half, spB, spA, qB, qA, LB, LA, SB, SA, wp,
                               a0, a1, a2, a3, te, twi, twn)
                 else:
-                    sweep_row(kind, g, geo, ib, d, dirs, uvec, wgt, half, spA, spB, qA, qB, LA, LB, SA, SB, wp,
+                    sweep_row(kind, g, flux, geo, ib, d, dirs, uvec, wgt, half, spA, spB, qA, qB, LA, LB, SA, SB, wp,
                               a0, a1, a2, a3, te, twi, twn)
             for icu in range(nc):  # scatter its fluence and flux
                 ic = np.int64(icu)
@@ -372,6 +374,7 @@ def sweep_group(sig, q, wu, wm, kind, g, a, sign, dirs, uvec, wgt, half, phi, F,
                 for ch in range(C):
                     y = np.uint64(ch * P + r + ic)
                     phi[i, j, l, ch] += a0[y]
-                    F[i, j, l, ch, 0] += a1[y]
-                    F[i, j, l, ch, 1] += a2[y]
-                    F[i, j, l, ch, 2] += a3[y]
+                    if flux:
+                        F[i, j, l, ch, 0] += a1[y]
+                        F[i, j, l, ch, 1] += a2[y]
+                        F[i, j, l, ch, 2] += a3[y]

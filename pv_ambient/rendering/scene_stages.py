@@ -499,7 +499,8 @@ class SceneStages:
         # the sweeps read the classified field's node means (docs/diffusion.rst §5)
         medium = self._hat_medium() if sweep else self._diffusion_medium()
         lgrid = self.light_grid(grid.factor)
-        extra = {"sweep_orders": sweep, "optics": self.optics} if sweep else {}
+        # a mean cosine of 0: no flux term in the radiance, the packed field holds φ alone (pack_for_march)
+        extra = {"sweep_orders": sweep, "optics": self.optics, "with_flux": g != 0.0} if sweep else {}
         if coarse == "remainder":
             extra["coarse_remainder"] = self.coarse_remainder()
         elif coarse:

@@ -102,6 +102,11 @@ def test_row_loops_equal_a_node_by_node_sweep(shape, association, kind, g, C, ro
     ref_phi, ref_F = _reference_sweep(sig, q, om, kind, g, spacing, R, half, 12)
     assert np.max(np.abs(phi - ref_phi)) <= 1e-12 * np.max(ref_phi)
     assert np.max(np.abs(F - ref_F)) <= 1e-6 * np.max(np.abs(ref_F))  # F is returned as float32
+    # without the flux (flux=False: the fluence's loops alone) the same fluence, and no F
+    phi0, F0 = sweep_once(sig, q, om, kind, g, spacing, association=association, direction=R, directions=12,
+                          flux=False)
+    assert F0 is None
+    assert np.max(np.abs(phi0 - ref_phi)) <= 1e-12 * np.max(ref_phi)
 
 
 def test_exp_neg_matches_math_exp():

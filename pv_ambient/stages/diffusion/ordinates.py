@@ -60,7 +60,7 @@ def fibonacci_directions(m):
 
 
 def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association="point", direction=None,
-               directions=DEFAULT_DIRECTIONS[0], out=None):
+               directions=DEFAULT_DIRECTIONS[0], out=None, flux=True):
     """Fluence and flux of the light scattered once by the source ``q0 (m p(ω·û) + (1 − m)/4π)``
     (W/m³/sr) before it interacts again, ``m û = omega`` (this module's docstring).
 
@@ -89,13 +89,17 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
         ones: :func:`scattering_orders` sweeps every order into the same two, as the first writes
         to fresh memory cost a page fault per 4 KiB, a sizeable part of an order at 256³
         (docs/performance.rst, "Transport sweeps"). Not used where the channels share one sweep.
+    flux : bool, default: True
+        Whether to form ``F`` at all: with an isotropic phase function nothing downstream may
+        need it (the next order's source takes no direction field, and the radiance of a mean
+        cosine of 0 has no flux term), and without it each sweep stores a third as much.
 
     Returns
     -------
     phi : numpy.ndarray
         float64, the shape of ``q0``.
-    F : numpy.ndarray
-        float32, ``q0.shape + (3,)``, world components.
+    F : numpy.ndarray or None
+        float32, ``q0.shape + (3,)``, world components; None where ``flux`` is False.
     """
     from ..._kernels.ordinates import sweep_buffers, sweep_group
 
@@ -130,7 +134,7 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     half = 0.0 if association == "point" else 0.5
     Cs = qs.shape[3]
     phi = _zeroed(out, 0, shape + (Cs,), np.float64, single)
-    F = _zeroed(out, 1, shape + (Cs, 3), np.float32, single)
+    F = _zeroed(out, 1, shape + (Cs, 3), np.float32, single) if flux else np.zeros((1, 1, 1, 1, 3), np.float32)
     for a in range(3):
         for sign in (1, -1):
             sel = (dom == a) & (score[:, a] > 0) & (np.sign(u[:, a]) == sign)
@@ -139,12 +143,14 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
             lat = [shape[x] for x in range(3) if x != a]
             bufs, P = sweep_buffers(int(sel.sum()), Cs, lat[0], lat[1], int(phase_kind))
             sweep_group(sig, qs, wu, wm, int(phase_kind), float(phase_g), a, sign, np.ascontiguousarray(dirs[sel]),
-                        np.ascontiguousarray(u[sel]), np.ascontiguousarray(wgt[sel]), half, phi, F, *bufs, P)
+                        np.ascontiguousarray(u[sel]), np.ascontiguousarray(wgt[sel]), half, phi, F, bool(flux), *bufs, P)
+    if not flux:
+        F = None
     if grey:
         phi = np.repeat(phi, C, axis=3)
-        F = np.repeat(F, C, axis=3)
+        F = None if F is None else np.repeat(F, C, axis=3)
     if single:
-        phi, F = phi[..., 0], F[..., 0, :]
+        phi, F = phi[..., 0], (None if F is None else F[..., 0, :])
     return phi, F
 
 
@@ -161,7 +167,7 @@ def _zeroed(out, i, shape, dtype, single):
 
 
 def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, orders, *,
-                      directions=DEFAULT_DIRECTIONS, progress_bar=False, **kw):
+                      directions=DEFAULT_DIRECTIONS, progress_bar=False, flux=True, **kw):
     """The first ``orders`` scattering orders by :func:`sweep_once` (this module's docstring):
     ``(φ, F, φ_K, F_K)``, the sums over the orders and the last order alone.
 
@@ -171,7 +177,9 @@ def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, or
     from the channels' sums (the channels share σt and the phase function; it is exact when they
     are proportional). ``directions``: an int, or (first order, later orders). ``progress_bar``:
     a tqdm bar over the orders (each order sweeps the whole grid along every direction: at 256³
-    an order takes seconds). ``kw``: :func:`sweep_once`'s other keywords.
+    an order takes seconds). ``flux``: whether the caller needs ``F`` (None in its place
+    otherwise; an anisotropic phase function forms each order's anyway, for the next order's
+    direction field). ``kw``: :func:`sweep_once`'s other keywords.
     """
     orders = check_int(orders, "orders", lo=1)
     m1, m2 = (directions, directions) if np.ndim(directions) == 0 else tuple(directions)
@@ -180,18 +188,20 @@ def scattering_orders(sigma_t, albedo, sources, phase_kind, phase_g, spacing, or
         from tqdm.auto import tqdm
 
         with tqdm(total=orders, desc="transport sweeps", unit="order") as bar:
-            return _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, bar.update, kw)
-    return _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, None, kw)
+            return _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, bar.update, flux, kw)
+    return _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, None, flux, kw)
 
 
-def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, done, kw):
+def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, done, flux, kw):
     """:func:`scattering_orders`' work; ``done()`` (or None) is called after each order."""
     from ..._kernels.ordinates import add_order, order_source
 
+    iso = int(phase_kind) == ISOTROPIC
+    need = bool(flux) or not iso  # an anisotropic order's flux gives the next one its direction field
     phi_k = F_k = None
     for q0, omega in sources:
-        p, f = sweep_once(sig, q0, omega, phase_kind, phase_g, spacing, directions=m1, **kw)
-        phi_k, F_k = (p, f) if phi_k is None else (phi_k + p, F_k + f)
+        p, f = sweep_once(sig, q0, omega, phase_kind, phase_g, spacing, directions=m1, flux=need, **kw)
+        phi_k, F_k = (p, f) if phi_k is None else (phi_k + p, None if f is None else F_k + f)
     if phi_k is None:
         raise ValueError("sources must hold at least one (q0, omega) pair")
     if done is not None:
@@ -200,8 +210,7 @@ def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, 
     if phi_k.ndim == 4 and alb.ndim == 3:
         alb = alb[..., None]
     sig_s = alb * (sig[..., None] if alb.ndim == 4 else sig)
-    phi, F = phi_k.copy(), F_k.astype(np.float64)
-    iso = int(phase_kind) == ISOTROPIC
+    phi, F = phi_k.copy(), (F_k.astype(np.float64) if flux else None)
     # every order's source and result go into the same arrays: the last order's, once its source
     # is formed (sweep_once's ``out``)
     q = np.empty(np.broadcast_shapes(sig_s.shape, phi_k.shape)) if orders > 1 else None
@@ -221,12 +230,18 @@ def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, 
             order_source(sig_s.reshape(-1), phi_k.reshape(-1), q.reshape(-1))
         else:
             np.multiply(sig_s, phi_k, out=q)
-        phi_k, F_k = sweep_once(sig, q, om, phase_kind, phase_g, spacing, directions=m2, out=(phi_k, F_k), **kw)
-        if flat and phi_k.shape == phi.shape and F_k.shape == F.shape:
+        phi_k, F_k = sweep_once(sig, q, om, phase_kind, phase_g, spacing, directions=m2, out=(phi_k, F_k), flux=need,
+                                **kw)
+        if F is None:  # no flux sum: the fluence alone
+            if flat and phi_k.shape == phi.shape:
+                add_order(phi.reshape(-1), np.empty(0), phi_k.reshape(-1), np.empty(0, np.float32))
+            else:
+                phi += phi_k
+        elif flat and phi_k.shape == phi.shape and F_k.shape == F.shape:
             add_order(phi.reshape(-1), F.reshape(-1), phi_k.reshape(-1), F_k.reshape(-1))
         else:
             phi += phi_k
             F += F_k
         if done is not None:
             done()
-    return phi, F.astype(np.float32), phi_k, F_k
+    return phi, (None if F is None else F.astype(np.float32)), phi_k, F_k

@@ -405,7 +405,8 @@ def _proportional(a, s0, s1, a_prev, s0_prev, s1_prev):
 
 
 def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders=0,
-                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, coarse=None, coarse_remainder=None, **options):
+                    sweep_directions=DEFAULT_DIRECTIONS, optics=None, coarse=None, coarse_remainder=None, with_flux=True,
+                    **options):
     """Direct irradiance → first-collision source → diffusion for a light (or several).
 
     A sequence of lights sums their sources into one solve (the problem is linear; per-light
@@ -454,6 +455,11 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
         the data grid. No box around the lights is needed: order K's fluence, scattered K times
         already, is smooth there (docs/diffusion.rst, "Solve resolution"). An isotropic phase
         function only (no first-moment source).
+    with_flux : bool, default: True
+        With ``sweep_orders``: False forms no flux sum and returns ``flux`` None — for a phase
+        function of mean cosine 0, whose radiance has no flux term (docs/diffusion.rst §4), so the
+        camera pass reads φ alone; an isotropic one's sweeps then store a third as much
+        (:func:`.ordinates.sweep_once`).
     **options
         Passed to :func:`solve_in_medium` (see :func:`solve_diffusion`); ``association`` and
         ``direction`` default to the geometry's.
@@ -499,7 +505,8 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
         return solve_in_medium(medium, g, sp, Q0, Q1, **opts)
     phi, F, phi_k, F_k = scattering_orders(medium.sigma_t, medium.albedo, first, kind, pg, sp, sweep_orders,
                                            association=opts["association"], direction=opts["direction"],
-                                           directions=sweep_directions, progress_bar=opts.get("progress_bar", False))
+                                           directions=sweep_directions, progress_bar=opts.get("progress_bar", False),
+                                           flux=bool(with_flux))
     # the light scattered more than K times: diffusion from order K's moments (no first-moment
     # source where the phase function is isotropic: the same solve, without a zero array)
     alb = medium.albedo if medium.albedo.ndim == 4 else medium.albedo[..., None]
@@ -514,7 +521,7 @@ def solve_for_light(light, g, *, medium, geometry, tau, light_grid, sweep_orders
     else:
         sol = solve_in_medium(medium, g, sp, q0, None if gm == 0.0 else gm * sig_s[..., None] * F_k, **opts)
     sol.phi = sol.phi + phi
-    sol.flux = (sol.flux + F).astype(np.float32)
+    sol.flux = None if F is None else (sol.flux + F).astype(np.float32)
     sol.time = time.perf_counter() - t_start
     return sol
 
