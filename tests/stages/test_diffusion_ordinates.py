@@ -302,6 +302,35 @@ def test_hat_source_of_a_slab_under_a_directional_light():
     assert np.allclose(w[n // 2, n // 2, inner], [0, 0, -1])
 
 
+def test_hat_source_next_to_a_point_light_is_the_control_volume_form():
+    """Within ``NEAR + 1`` index units of a point light (1/d² singular) the hat source keeps the
+    control-volume form σs·mean(E) of :func:`direct_irradiance` — computed on the box of those
+    nodes alone, it equals the whole grid's there (the same control volumes and τ lookups, to the
+    rounding of the box's shifted origin); farther out the hat form differs from it."""
+    import pv_ambient as pa
+    from pv_ambient import PointLight, datasets
+    from pv_ambient.stages.diffusion import hat_medium, hat_source
+    from pv_ambient.stages.diffusion.sources import NEAR, direct_irradiance
+
+    r = pa.Renderer(datasets.cloud(n=20), transfer_function=pa.TransferFunction(**datasets.suggested_style("cloud")))
+    light = PointLight((0.11, -0.07, 0.04), intensity=(2.0, 1.5, 1.0))
+    grid = r.stages.light_grid()
+    tau = r.stages.optical_depth(light, grid)
+    med = hat_medium(r.optics, r.geometry)
+    q, w = hat_source(light, r.geometry, tau, grid, r.optics, med)
+    E, om = direct_irradiance(light, r.geometry, tau, grid)
+    cv = med.albedo * med.sigma_t[..., None] * E
+    M = np.asarray(r.geometry.index_to_world, np.float64)
+    pl = np.linalg.solve(M[:3, :3], np.asarray(light.position) - M[:3, 3])
+    dmax = np.max(np.abs(np.indices(med.sigma_t.shape).transpose(1, 2, 3, 0) - pl), axis=-1)
+    near = dmax < NEAR + 1.0 - 1e-6
+    assert 8 <= near.sum() < near.size // 50
+    assert np.allclose(q[near], cv[near], rtol=1e-12, atol=0.0)
+    assert np.allclose(w[near], om[near], rtol=1e-12, atol=1e-15)
+    far = (dmax > NEAR + 2.0) & (cv[..., 0] > 1e-3 * cv[..., 0].max())
+    assert far.sum() > 100 and not np.allclose(q[far], cv[far], rtol=1e-3)
+
+
 def test_sweeps_refuse_a_mean_cosine_per_node():
     """The sweeps apply one phase function everywhere: a g per node is refused before any work."""
     import pv_ambient as pa

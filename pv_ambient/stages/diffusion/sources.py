@@ -252,13 +252,33 @@ def hat_source(light, geometry, tau, light_grid, optics, medium, *, near=NEAR):
     kernel(*rec, M, lo, hi, is_point, pl, lw, tau, np.asarray(light_grid.lo, np.float64),
            np.asarray(light_grid.inv_step, np.float64), float(near), q, w, done)
     q *= power
-    if not np.all(done):  # next to a point light: the control-volume form
-        E_d, omega = direct_irradiance(light, geometry, tau, light_grid)
+    if not np.all(done):  # next to a point light: the control-volume form, on the nodes' bounding box alone
+        near_nodes = np.argwhere(~done)
+        box = tuple(slice(int(a), int(b) + 1) for a, b in zip(near_nodes.min(axis=0), near_nodes.max(axis=0)))
+        sub_geometry, sub_grid = _sub_box(geometry, light_grid, box)
+        E_d, omega = direct_irradiance(light, sub_geometry, tau, sub_grid)
+        keep = ~done[box]
         alb = medium.albedo if medium.albedo.ndim == 4 else medium.albedo[..., None]
-        cv = alb * medium.sigma_t[..., None] * E_d
-        q[~done] = cv[~done]
-        w[~done] = omega[~done]
+        cv = alb[box] * medium.sigma_t[box][..., None] * E_d
+        q[box][keep] = cv[keep]
+        w[box][keep] = omega[keep]
     return q, w
+
+
+def _sub_box(geometry, light_grid, box):
+    """The nodes ``box`` (three slices) of ``geometry`` as a grid of their own for
+    :func:`unit_irradiance`, and ``light_grid`` seen from it: index 0 at the box's first node,
+    the medium's box and the light grid's origin shifted by the same offset, so each node's
+    control volume is clipped, and its τ read, exactly where the whole grid's are."""
+    from types import SimpleNamespace
+
+    off = np.array([sl.start for sl in box], np.float64)
+    M = np.array(geometry.index_to_world, np.float64)
+    M[:3, 3] += M[:3, :3] @ off
+    sub = SimpleNamespace(shape=tuple(sl.stop - sl.start for sl in box), index_to_world=M,
+                          box_lo=np.asarray(geometry.box_lo, np.float64) - off,
+                          box_hi=np.asarray(geometry.box_hi, np.float64) - off, spacing=geometry.spacing)
+    return sub, SimpleNamespace(lo=np.asarray(light_grid.lo, np.float64) - off, inv_step=light_grid.inv_step)
 
 
 def optics_arrays(optics):
