@@ -297,6 +297,39 @@ def add_order(phi, F, phi_k, F_k):
         F[i] += F_k[i]
 
 
+#: Planes of the last axis a transpose writes at a time (:func:`last_axis_first`).
+TRANSPOSE_TILE = 16
+
+
+@driver
+def last_axis_first(src, dst):
+    """``dst[l, i, j, c] = src[i, j, l, c]`` (4-D arrays): the grid with its last axis first, so that
+    the sweeps along that axis read and write their planes as rows (:func:`.sweep_group` along the
+    first axis). Each thread reads its ``i`` slab in memory order and writes ``n2`` lines that the
+    next ``j`` continues, ``TRANSPOSE_TILE`` of them at a time (one page each: few TLB entries)."""
+    n0, n1, n2, C = src.shape
+    for i in prange(n0):
+        for l0 in range(0, n2, TRANSPOSE_TILE):
+            l1 = min(l0 + TRANSPOSE_TILE, n2)
+            for j in range(n1):
+                for l in range(l0, l1):
+                    for c in range(C):
+                        dst[l, i, j, c] = src[i, j, l, c]
+
+
+@driver
+def first_axis_last(src, dst):
+    """The inverse of :func:`last_axis_first`: ``dst[i, j, l, c] = src[l, i, j, c]``, tiled alike."""
+    n0, n1, n2, C = dst.shape
+    for i in prange(n0):
+        for l0 in range(0, n2, TRANSPOSE_TILE):
+            l1 = min(l0 + TRANSPOSE_TILE, n2)
+            for j in range(n1):
+                for l in range(l0, l1):
+                    for c in range(C):
+                        dst[i, j, l, c] = src[l, i, j, c]
+
+
 def sweep_buffers(G, C, nb, nc, kind):
     """The plane buffers of :func:`sweep_group` for ``G`` directions, ``C`` channels and planes of
     ``nb`` × ``nc`` nodes (module docstring), in its argument order, and ``P``."""

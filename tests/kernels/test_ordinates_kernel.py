@@ -139,3 +139,17 @@ def test_sweep_row_loops_are_vectorised(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     found = int(re.search(r"PACKED_FMA (\d+)", proc.stdout).group(1))
     assert found >= 8, proc.stdout
+
+
+@pytest.mark.parametrize("shape", [(5, 4, 37, 3), (3, 6, 16, 1), (2, 1, 1, 9)])
+def test_last_axis_first_is_numpy_transpose(shape):
+    """The sweeps along the grid's last axis run on a copy with that axis first: the parallel,
+    tiled copy (planes across tile boundaries, one channel, a single plane) equals NumPy's
+    transpose, and the way back restores the array to the bit."""
+    a = np.random.default_rng(5).random(shape)
+    t = np.empty((shape[2], shape[0], shape[1], shape[3]))
+    K.last_axis_first(a, t)
+    assert np.array_equal(t, a.transpose(2, 0, 1, 3))
+    back = np.empty_like(a)
+    K.first_axis_last(t, back)
+    assert np.array_equal(back, a)

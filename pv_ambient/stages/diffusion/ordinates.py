@@ -136,14 +136,25 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     phi = _zeroed(out, 0, shape + (Cs,), np.float64, single)
     F = _zeroed(out, 1, shape + (Cs, 3), np.float32, single) if flux else np.zeros((1, 1, 1, 1, 3), np.float32)
     for a in range(3):
+        arrays, axis, ua = (sig, qs, wu, wm, phi, F), a, u
+        if a == 2 and np.any((dom == 2) & (score[:, 2] > 0)):
+            # a plane across the last axis is strided in memory (a node's column is contiguous):
+            # those groups sweep a copy with that axis first, where their planes are rows, the
+            # sums so far copied with it and back after (docs/performance.rst, "Transport sweeps")
+            arrays, axis, ua = tuple(_last_first(x) for x in arrays), 0, u[:, [2, 0, 1]]
         for sign in (1, -1):
             sel = (dom == a) & (score[:, a] > 0) & (np.sign(u[:, a]) == sign)
             if not np.any(sel):
                 continue
             lat = [shape[x] for x in range(3) if x != a]
             bufs, P = sweep_buffers(int(sel.sum()), Cs, lat[0], lat[1], int(phase_kind))
-            sweep_group(sig, qs, wu, wm, int(phase_kind), float(phase_g), a, sign, np.ascontiguousarray(dirs[sel]),
-                        np.ascontiguousarray(u[sel]), np.ascontiguousarray(wgt[sel]), half, phi, F, bool(flux), *bufs, P)
+            sweep_group(*arrays[:4], int(phase_kind), float(phase_g), axis, sign, np.ascontiguousarray(dirs[sel]),
+                        np.ascontiguousarray(ua[sel]), np.ascontiguousarray(wgt[sel]), half, *arrays[4:], bool(flux),
+                        *bufs, P)
+        if axis != a:
+            _first_last(arrays[4], phi)
+            if flux:
+                _first_last(arrays[5], F)
     if not flux:
         F = None
     if grey:
@@ -152,6 +163,28 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     if single:
         phi, F = phi[..., 0], (None if F is None else F[..., 0, :])
     return phi, F
+
+
+def _last_first(a):
+    """``a`` (n0, n1, n2, …) as a new C-contiguous array (n2, n0, n1, …) (in parallel:
+    :func:`pv_ambient._kernels.ordinates.last_axis_first`)."""
+    from ..._kernels.ordinates import last_axis_first
+
+    n0, n1, n2 = a.shape[:3]
+    out = np.empty((n2, n0, n1) + a.shape[3:], a.dtype)
+    last_axis_first(np.ascontiguousarray(a).reshape(n0, n1, n2, -1), out.reshape(n2, n0, n1, -1))
+    return out
+
+
+def _first_last(a, dst):
+    """Write :func:`_last_first`'s ``a`` back into ``dst`` (n0, n1, n2, …), C-contiguous."""
+    from ..._kernels.ordinates import first_axis_last
+
+    n2, n0, n1 = a.shape[:3]
+    view = dst.reshape(n0, n1, n2, -1)
+    if not np.shares_memory(view, dst):  # a copy would take the sums and drop them
+        raise ValueError("dst must be C-contiguous")
+    first_axis_last(a.reshape(n2, n0, n1, -1), view)
 
 
 def _zeroed(out, i, shape, dtype, single):
