@@ -14,7 +14,7 @@ The node's rule is :func:`.bake.bake_node`'s, pass by pass (:func:`bake_rows`):
    last node);
 3. :func:`chunk_store` — ``(E T p + E Φ D)·max(d², d2min)`` added to (or written in) the slot, D
    read per node from :func:`ball_d_rows`' array: D(r σ̄, ā) does not depend on the lights, so it
-   is computed once per transfer function, not per light (:func:`.raycast.d_lookup3` without θ —
+   is computed once per transfer function, not per light (:func:`.preint.d_lookup3` without θ —
    :func:`.preint.tau_coord` in selects, the albedo node counted instead of searched).
 
 What differs from the scalar rule: ``exp`` and ``log`` are :func:`.expneg.exp_neg` and
@@ -186,7 +186,7 @@ def chunk_albedo(a_nodes, nch, s, b):
 @scalar(force_inline=True)
 def d_node(D, a_nodes, it, tt, na, a):
     """D at τ coordinate (it, tt) for albedo ``a`` whose node (counted) is ``na``:
-    :func:`.raycast._d_albedo` on a table without θ."""
+    :func:`.preint.d_lookup3`'s albedo interpolation on a table without θ."""
     ia = np.uint64(np.uint32(na))
     a0 = a_nodes[ia]
     ta = min(max((a - a0) / (a_nodes[ia + 1] - a0), 0.0), 1.0)
@@ -253,7 +253,7 @@ def ball_d_rows(ball, D, a_nodes, radius, tau_lo_log, tau_dlog, inv_scale, out, 
     """D(r σ̄, ā) of an isotropic phase function at every data sample, per channel: ``out`` (m0, m1,
     m2, nch) uint16 in units of ``1 / inv_scale`` (:class:`pv_ambient.stages.bake.BallD`), ``nch``
     3 or 1 (a grey ball albedo: the red channel's); ``ball`` (m0, m1, m2,
-    4) the ball grid, ``D`` (n_a, n_tau, 1) the table slice (:func:`.raycast.d_lookup3` at every
+    4) the ball grid, ``D`` (n_a, n_tau, 1) the table slice (:func:`.preint.d_lookup3` at every
     node, in chunks of a row). It depends on the transfer function and the radius, not on the
     lights: a relight's bake (:func:`bake_rows`) reads it instead of the ball."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]

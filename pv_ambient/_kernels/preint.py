@@ -337,41 +337,64 @@ def tau_coord(n_tau, tau_lo_log, tau_dlog, tau):
     Returns ``(i, t)``: τ lies between nodes i and i + 1 at fraction t ∈ [0, 1]; linear in τ
     below the first log node, linear in log τ above, clamped at both ends (τ ≤ 0 or NaN → node 0).
     """
+    return tau_coord_in(np.float64, n_tau, tau_lo_log, tau_dlog, tau)
+
+
+@scalar(inline=True)
+def tau_coord_in(F, n_tau, tau_lo_log, tau_dlog, tau):
+    """:func:`tau_coord` with its ``exp``, ``log`` and divisions, and the fraction returned, in the
+    float type ``F`` (``np.float64`` or ``np.float32``): the one formula. Why: the CUDA ray cast
+    locates τ in float32 (:func:`.raycast.direct_ambient_light`), where a float64 ``log``, ``exp`` and
+    division are long sequences whose registers every thread of the kernel pays for; the fraction
+    weighs float32 table entries."""
     if not (tau > 0.0):
-        return 0, 0.0
-    tau1 = math.exp(tau_lo_log)
+        return 0, F(0.0)
+    tau1 = math.exp(F(tau_lo_log))
     if tau < tau1:
-        return 0, tau / tau1
-    u = (math.log(tau) - tau_lo_log) / tau_dlog
+        return 0, F(tau) / tau1
+    u = (math.log(F(tau)) - F(tau_lo_log)) / F(tau_dlog)
     if not (u < n_tau - 2):
-        return n_tau - 2, 1.0
+        return n_tau - 2, F(1.0)
     k = int(u)
-    return k + 1, u - k
+    return k + 1, u - F(k)
 
 
 @scalar
 def theta_coord(n_theta, cos_theta):
     """Locate θ = acos(cos_theta) among ``n_theta`` nodes uniform in [0, π]: ``(j, t)``."""
+    return theta_coord_in(np.float64, n_theta, cos_theta)
+
+
+@scalar(inline=True)
+def theta_coord_in(F, n_theta, cos_theta):
+    """:func:`theta_coord` with its ``acos``, division and fraction in the float type ``F``
+    (:func:`tau_coord_in`)."""
     if n_theta < 2:
-        return 0, 0.0
+        return 0, F(0.0)
     c = min(max(cos_theta, -1.0), 1.0)
-    u = math.acos(c) * (n_theta - 1) / PI
+    u = math.acos(F(c)) * F(n_theta - 1) / F(PI)
     j = min(int(u), n_theta - 2)
-    return j, min(u - j, 1.0)
+    return j, min(u - F(j), F(1.0))
 
 
 @scalar
 def albedo_coord(a_nodes, a):
     """Locate albedo ``a`` among ascending ``a_nodes``: ``(i, t)``, clamped at both ends."""
+    return albedo_coord_in(np.float64, a_nodes, a)
+
+
+@scalar(inline=True)
+def albedo_coord_in(F, a_nodes, a):
+    """:func:`albedo_coord` with its division and fraction in the float type ``F`` (:func:`tau_coord_in`)."""
     n = a_nodes.shape[0]
     if n < 2 or not (a > a_nodes[0]):
-        return 0, 0.0
+        return 0, F(0.0)
     if a >= a_nodes[n - 1]:
-        return n - 2, 1.0
+        return n - 2, F(1.0)
     i = 0
     while a_nodes[i + 1] <= a:
         i += 1
-    return i, (a - a_nodes[i]) / (a_nodes[i + 1] - a_nodes[i])
+    return i, F(a - a_nodes[i]) / F(a_nodes[i + 1] - a_nodes[i])
 
 
 @scalar
@@ -396,6 +419,48 @@ def d_lookup(D, a_nodes, tau_lo_log, tau_dlog, cos_theta, tau, a):
         (1.0 - st) * D[ia1, it1, jt] + st * D[ia1, it1, jt1]
     )
     return (1.0 - ta) * lo + ta * hi
+
+
+@scalar(force_inline=True)
+def _d_at(F, D, ia, it, tt, jt, st):
+    one = F(1.0)
+    n_t = D.shape[2]
+    jt1 = min(jt + 1, n_t - 1)
+    return ((one - tt) * ((one - st) * D[ia, it, jt] + st * D[ia, it, jt1])
+            + tt * ((one - st) * D[ia, it + 1, jt] + st * D[ia, it + 1, jt1]))
+
+
+@scalar(force_inline=True)
+def _d_albedo(F, D, a_nodes, it, tt, jt, st, a):
+    ia, ta = albedo_coord_in(F, a_nodes, a)
+    lo = _d_at(F, D, ia, it, tt, jt, st)
+    if ta == 0.0:
+        return lo
+    return (F(1.0) - ta) * lo + ta * _d_at(F, D, min(ia + 1, D.shape[0] - 1), it, tt, jt, st)
+
+
+@scalar(force_inline=True)
+def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
+    """D at one (θ, τ) for three albedos (rgb): :func:`d_lookup` with the τ and θ coordinates located
+    once (``it, tt`` from :func:`tau_coord`)."""
+    return d_lookup3_in(np.float64, D, a_nodes, it, tt, cos_theta, ar, ag, ab)
+
+
+@scalar(force_inline=True)
+def d_lookup3_in(F, D, a_nodes, it, tt, cos_theta, ar, ag, ab):
+    """:func:`d_lookup3` with the θ and albedo coordinates and the interpolation in the float type
+    ``F`` (``tt`` of that type too, :func:`tau_coord_in`): the table is float32, and the
+    GPU's ball term interpolates it in float32 (:func:`.raycast.ambient_light_with`)."""
+    jt, st = theta_coord_in(F, D.shape[2], cos_theta)
+    dr = _d_albedo(F, D, a_nodes, it, tt, jt, st, ar)
+    dg = dr if ag == ar else _d_albedo(F, D, a_nodes, it, tt, jt, st, ag)
+    if ab == ar:
+        db = dr
+    elif ab == ag:
+        db = dg
+    else:
+        db = _d_albedo(F, D, a_nodes, it, tt, jt, st, ab)
+    return dr, dg, db
 
 
 @scalar

@@ -34,7 +34,7 @@ from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_
                      RECORD_PAIR, SINGLE_SCATTERING)
 from .phase import phase_eval, phase_in
 from .record import pair_light, record_light
-from .preint import albedo_coord, tau_coord, theta_coord
+from .preint import d_lookup3, d_lookup3_in, tau_coord, tau_coord_in
 from .rng import uniform
 
 STREAM_JITTER = 1
@@ -141,8 +141,15 @@ def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
     (:data:`._jit.ON_GPU`, :func:`.phase.phase_in`): in float64 the square root and the division call
     slow paths, and the ``exp`` holds its polynomial's constants, in registers that every thread of
     an unbaked lit kernel pays for."""
-    llo, linv, tau = grid.lo, grid.inv_step, grid.tau
     er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
+    return direct_light_with(l, er, eg, eb, ox, oy, oz, x, y, z, dx, dy, dz, lights, grid)
+
+
+@scalar(force_inline=True)
+def direct_light_with(l, er, eg, eb, ox, oy, oz, x, y, z, dx, dy, dz, lights, grid):
+    """:func:`direct_light_one` with light ``l``'s irradiance (er, eg, eb) and direction (ox, oy, oz)
+    at the point given (:func:`light_at`)."""
+    llo, linv, tau = grid.lo, grid.inv_step, grid.tau
     lx, ly, lz = (x - llo[0]) * linv[0], (y - llo[1]) * linv[1], (z - llo[2]) * linv[2]
     c = -(ox * dx + oy * dy + oz * dz)
     if ON_GPU:
@@ -156,77 +163,63 @@ def direct_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, lights, grid):
 
 
 @scalar(force_inline=True)
-def _d_at(D, ia, it, tt, jt, st):
-    n_t = D.shape[2]
-    jt1 = min(jt + 1, n_t - 1)
-    return ((1.0 - tt) * ((1.0 - st) * D[ia, it, jt] + st * D[ia, it, jt1])
-            + tt * ((1.0 - st) * D[ia, it + 1, jt] + st * D[ia, it + 1, jt1]))
-
-
-@scalar(force_inline=True)
-def _d_albedo(D, a_nodes, it, tt, jt, st, a):
-    ia, ta = albedo_coord(a_nodes, a)
-    lo = _d_at(D, ia, it, tt, jt, st)
-    if ta == 0.0:
-        return lo
-    return (1.0 - ta) * lo + ta * _d_at(D, min(ia + 1, D.shape[0] - 1), it, tt, jt, st)
-
-
-@scalar(force_inline=True)
-def d_lookup3(D, a_nodes, it, tt, cos_theta, ar, ag, ab):
-    """D at one (θ, τ) for three albedos (rgb): :func:`pv_ambient._kernels.preint.d_lookup` with
-    the τ and θ coordinates located once (``it, tt`` from ``tau_coord``)."""
-    jt, st = theta_coord(D.shape[2], cos_theta)
-    dr = _d_albedo(D, a_nodes, it, tt, jt, st, ar)
-    dg = dr if ag == ar else _d_albedo(D, a_nodes, it, tt, jt, st, ag)
-    if ab == ar:
-        db = dr
-    elif ab == ag:
-        db = dg
-    else:
-        db = _d_albedo(D, a_nodes, it, tt, jt, st, ab)
-    return dr, dg, db
-
-
-@scalar(force_inline=True)
-def ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, tau_b, abr, abg, abb):
-    """Σ_j E_j Φ_j D(θ_j, r σ̄, ā) (rgb): light scattered at least once inside the ball (docs/ambient_scattering.rst §4).
+def direct_ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient):
+    """Unbaked ambient scattering's in-scattered light (rgb): :func:`direct_light` plus
+    Σ_j E_j Φ_j D(θ_j, r σ̄, ā), light scattered at least once inside the ball (docs/ambient_scattering.rst
+    §4).
 
     Φ_j is read at the ball's entry point ``x − s·ω_j`` (s = r, or the distance to a point light
     when that is shorter) from the front optical depth ``grid.phi``: one component per light
     (grey, Beer–Lambert mode: the optical depth itself) or three per light (per channel, tube mode).
-    """
+
+    One loop over the lights for both terms: each light's irradiance and direction (:func:`light_at`)
+    are computed once, and a GPU thread holds one loop's state, not two loops' in turn. The CPU sums
+    the two terms apart and adds them at the end (the order of its additions, so its images, as when
+    they were two loops); the GPU adds both into one sum (:data:`._jit.ON_GPU`): three register
+    pairs fewer across the loop. There the τ coordinate and the ball term are float32
+    (:func:`ambient_light_with`)."""
+    bs, abr, abg, abb = trilinear4(ambient.ball, x, y, z)
+    if ON_GPU:
+        it, tt = tau_coord_in(np.float32, ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, ambient.radius * bs)
+    else:
+        it, tt = tau_coord(ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, ambient.radius * bs)
     sr = 0.0
     sg = 0.0
     sb = 0.0
-    it, tt = tau_coord(ambient.D.shape[1], ambient.tau_lo_log, ambient.tau_dlog, tau_b)
+    mr = 0.0
+    mg = 0.0
+    mb = 0.0
     for l in range(lights.kind.shape[0]):
-        mr, mg, mb = ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr,
-                                       abg, abb)
-        sr += mr
-        sg += mg
-        sb += mb
-    return sr, sg, sb
-
-
-@scalar(force_inline=True)
-def ambient_light_one(l, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb):
-    """Light ``l``'s term of :func:`ambient_light`, ``E_l Φ_l D(θ_l, ·)`` (rgb), the τ coordinate of
-    D located as ``(it, tt)``."""
-    er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
-    return ambient_light_with(l, er, eg, eb, ox, oy, oz, ball_entry(l, lights, ambient.radius, wx, wy, wz), x, y, z,
-                              dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb)
+        er, eg, eb, ox, oy, oz = light_at(l, lights, wx, wy, wz)
+        qr, qg, qb = direct_light_with(l, er, eg, eb, ox, oy, oz, x, y, z, dx, dy, dz, lights, grid)
+        pr, pg, pb = ambient_light_with(l, er, eg, eb, ox, oy, oz, ball_entry(l, lights, ambient.radius, wx, wy, wz),
+                                        x, y, z, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr, abg, abb)
+        if ON_GPU:
+            sr += qr + pr
+            sg += qg + pg
+            sb += qb + pb
+        else:
+            sr += qr
+            sg += qg
+            sb += qb
+            mr += pr
+            mg += pg
+            mb += pb
+    return sr + mr, sg + mg, sb + mb
 
 
 @scalar(force_inline=True)
 def ball_entry(l, lights, radius, wx, wy, wz):
     """How far back toward light ``l`` the ball around world point w is entered: its radius, or the
-    distance to a point light when that is shorter."""
+    distance to a point light when that is shorter (a float32 square root on the GPU: a float64 one
+    calls a slow path there, and the entry point is read in float32)."""
     if lights.kind[l] == 0:
         lvec = lights.vec
         vx = wx - lvec[l, 0]
         vy = wy - lvec[l, 1]
         vz = wz - lvec[l, 2]
+        if ON_GPU:
+            return min(radius, np.float64(math.sqrt(np.float32(vx * vx + vy * vy + vz * vz))))
         return min(radius, math.sqrt(vx * vx + vy * vy + vz * vz))
     return radius
 
@@ -234,9 +227,15 @@ def ball_entry(l, lights, radius, wx, wy, wz):
 @scalar(force_inline=True)
 def ambient_light_with(l, er, eg, eb, ox, oy, oz, s, x, y, z, dx, dy, dz, w2i, lights, grid, ambient, it, tt, abr,
                        abg, abb):
-    """:func:`ambient_light_one` with light ``l``'s irradiance (er, eg, eb) and direction (ox, oy, oz)
-    at the point (:func:`light_at`) and the ball's entry distance ``s`` (:func:`ball_entry`) given:
-    a caller that has them (the bake) computes them once."""
+    """Light ``l``'s term ``E_l Φ_l D(θ_l, ·)`` (rgb) of :func:`direct_ambient_light`, D's τ coordinate
+    located as ``(it, tt)``, with the light's irradiance (er, eg, eb) and direction (ox, oy, oz) at
+    the point (:func:`light_at`) and the ball's entry distance ``s`` (:func:`ball_entry`) given: a
+    caller that has them (the bake, the ray cast's loop over the lights) computes them once.
+
+    On the GPU (:data:`._jit.ON_GPU`) the front optical depth is interpolated, and its ``exp`` and the
+    D lookup (:func:`.preint.d_lookup3_in`) computed, in float32, as :func:`direct_light_one`'s
+    transmittance: ``phi`` and D are float32 tables, and the float64 ``exp``, ``acos`` and divisions
+    are long sequences whose registers every thread of the unbaked kernel holds."""
     llo, linv, phi = grid.lo, grid.inv_step, grid.phi
     D, a_nodes = ambient.D, ambient.a_nodes
     nch = phi.shape[3] // lights.kind.shape[0]
@@ -245,14 +244,24 @@ def ambient_light_with(l, er, eg, eb, ox, oy, oz, s, x, y, z, dx, dy, dz, w2i, l
     ly = (y - s * qy - llo[1]) * linv[1]
     lz = (z - s * qz - llo[2]) * linv[2]
     c = -(ox * dx + oy * dy + oz * dz)
-    i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(phi, lx, ly, lz)  # once for every channel
-    fr = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, nch * l))
-    fg = fr
-    fb = fr
-    if nch != 1:
-        fg = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 1))
-        fb = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 2))
-    dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
+    if ON_GPU:
+        i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(phi.shape[0], phi.shape[1], phi.shape[2], lx, ly, lz)
+        fr = np.float64(math.exp(-corner32(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, nch * l)))
+        fg = fr
+        fb = fr
+        if nch != 1:
+            fg = np.float64(math.exp(-corner32(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 1)))
+            fb = np.float64(math.exp(-corner32(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 2)))
+        dr, dg, db = d_lookup3_in(np.float32, D, a_nodes, it, tt, c, abr, abg, abb)
+    else:
+        i0, i1, fx, j0, j1, fy, k0, k1, fz = locate(phi, lx, ly, lz)  # once for every channel
+        fr = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, nch * l))
+        fg = fr
+        fb = fr
+        if nch != 1:
+            fg = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 1))
+            fb = math.exp(-corner_lerp(phi, i0, i1, fx, j0, j1, fy, k0, k1, fz, 3 * l + 2))
+        dr, dg, db = d_lookup3(D, a_nodes, it, tt, c, abr, abg, abb)
     return er * fr * dr, eg * fg * dg, eb * fb * db
 
 
@@ -297,16 +306,11 @@ def lit_source(model, baked, x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid,
     evaluates the same function at a path's first collision."""
     if baked:  # isotropic phase: the lights' in-scattering, baked
         lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
+    elif model == AMBIENT_SCATTERING:
+        return direct_ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient)
     else:
         lr, lg, lb = direct_light(x, y, z, wx, wy, wz, dx, dy, dz, lights, grid)
-    if model == AMBIENT_SCATTERING and not baked:
-        bs, b1, b2, b3 = trilinear4(ambient.ball, x, y, z)
-        mr, mg, mb = ambient_light(x, y, z, wx, wy, wz, dx, dy, dz, w2i, lights, grid, ambient,
-                                   ambient.radius * bs, b1, b2, b3)
-        lr += mr
-        lg += mg
-        lb += mb
-    elif model == DIFFUSION:
+    if model == DIFFUSION:
         mr, mg, mb = diffusion_light(diffusion.field, x, y, z, dx, dy, dz, diffusion.g)
         lr += mr
         lg += mg

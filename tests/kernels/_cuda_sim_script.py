@@ -42,8 +42,8 @@ out["raycast_kernels"] = sorted(kc.RAYCAST_KERNELS)
 from pv_ambient._kernels import raycast as kr  # noqa: E402
 from pv_ambient._kernels._jit import ON_GPU, cuda_device  # noqa: E402
 
-out["on_gpu"] = [ON_GPU, kr.direct_light_one.py_func.__globals__["ON_GPU"],
-                 cuda_device(kr.direct_light_one).fn.__globals__["ON_GPU"]]
+out["on_gpu"] = [ON_GPU, kr.direct_light_with.py_func.__globals__["ON_GPU"],
+                 cuda_device(kr.direct_light_with).fn.__globals__["ON_GPU"]]
 spec_of = {id(k): list(spec) for spec, k in kc.RAYCAST_KERNELS.items()}
 _launches = []
 _call = FakeCUDAKernel.__call__

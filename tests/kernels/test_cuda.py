@@ -121,8 +121,8 @@ def test_physics_exists_once():
 
 def test_float32_switch_is_bound_on_the_gpu_only(sim):
     """``_jit.ON_GPU`` is False in the scalar functions the CPU compiles and True in their CUDA device
-    versions (the simulator's here): the GPU's float32 branches (the per-light phase function and
-    transmittance) run only there, and the CPU's images are those of its float64 branch."""
+    versions (the simulator's here): the GPU's float32 branches (the per-light phase function,
+    transmittance and ball term) run only there, and the CPU's images are those of its float64 branch."""
     out, _ = sim
     assert out["on_gpu"] == [False, False, True]
 
