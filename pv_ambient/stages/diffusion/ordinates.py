@@ -60,7 +60,7 @@ def fibonacci_directions(m):
 
 
 def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association="point", direction=None,
-               directions=DEFAULT_DIRECTIONS[0], out=None, flux=True):
+               directions=DEFAULT_DIRECTIONS[0], out=None, flux=True, work=None):
     """Fluence and flux of the light scattered once by the source ``q0 (m p(ω·û) + (1 − m)/4π)``
     (W/m³/sr) before it interacts again, ``m û = omega`` (this module's docstring).
 
@@ -93,6 +93,10 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
         Whether to form ``F`` at all: with an isotropic phase function nothing downstream may
         need it (the next order's source takes no direction field, and the radiance of a mean
         cosine of 0 has no flux term), and without it each sweep stores a third as much.
+    work : dict, optional
+        Kept by a caller that sweeps the same ``sigma_t`` again (:func:`scattering_orders`, once per
+        order): the copies with the last axis first (σt itself, and buffers for the source and the
+        sums) are made once and reused, not allocated again at every call.
 
     Returns
     -------
@@ -141,7 +145,7 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
             # a plane across the last axis is strided in memory (a node's column is contiguous):
             # those groups sweep a copy with that axis first, where their planes are rows, the
             # sums so far copied with it and back after (docs/performance.rst, "Transport sweeps")
-            arrays, axis, ua = tuple(_last_first(x) for x in arrays), 0, u[:, [2, 0, 1]]
+            arrays, axis, ua = _last_first_all(arrays, sigma_t, work), 0, u[:, [2, 0, 1]]
         for sign in (1, -1):
             sel = (dom == a) & (score[:, a] > 0) & (np.sign(u[:, a]) == sign)
             if not np.any(sel):
@@ -165,13 +169,34 @@ def sweep_once(sigma_t, q0, omega, phase_kind, phase_g, spacing, *, association=
     return phi, F
 
 
-def _last_first(a):
-    """``a`` (n0, n1, n2, …) as a new C-contiguous array (n2, n0, n1, …) (in parallel:
-    :func:`pv_ambient._kernels.ordinates.last_axis_first`)."""
+def _last_first_all(arrays, sigma_t, work):
+    """:func:`_last_first` of :func:`sweep_once`'s arrays (σt, q, u, m, φ, F), into the buffers of
+    ``work`` where it holds them (a dict, or None): σt's copy is kept there while the same
+    ``sigma_t`` is swept again, the others' memory reused (a fresh array of the grid's size costs a
+    page fault per 4 KiB at its first write)."""
+    if work is None:
+        return tuple(_last_first(x) for x in arrays)
+    if work.get("sigma_t") is not sigma_t:
+        work.clear()
+        work["sigma_t"], work["sig"] = sigma_t, _last_first(arrays[0])
+    out = [work["sig"]]
+    for i, x in enumerate(arrays[1:], 1):
+        buf = work.get(i)
+        t = _last_first(x, buf if buf is not None and buf.shape[1:] == x.shape[:2] + x.shape[3:]
+                        and buf.shape[0] == x.shape[2] and buf.dtype == x.dtype else None)
+        work[i] = t
+        out.append(t)
+    return tuple(out)
+
+
+def _last_first(a, out=None):
+    """``a`` (n0, n1, n2, …) as a C-contiguous array (n2, n0, n1, …), written into ``out`` where
+    given (in parallel: :func:`pv_ambient._kernels.ordinates.last_axis_first`)."""
     from ..._kernels.ordinates import last_axis_first
 
     n0, n1, n2 = a.shape[:3]
-    out = np.empty((n2, n0, n1) + a.shape[3:], a.dtype)
+    if out is None:
+        out = np.empty((n2, n0, n1) + a.shape[3:], a.dtype)
     last_axis_first(np.ascontiguousarray(a).reshape(n0, n1, n2, -1), out.reshape(n2, n0, n1, -1))
     return out
 
@@ -231,6 +256,7 @@ def _orders(sig, albedo, sources, phase_kind, phase_g, spacing, orders, m1, m2, 
 
     iso = int(phase_kind) == ISOTROPIC
     need = bool(flux) or not iso  # an anisotropic order's flux gives the next one its direction field
+    kw = dict(kw, work={})  # every order sweeps the same σt: its transposed copy and buffers are kept
     phi_k = F_k = None
     for q0, omega in sources:
         p, f = sweep_once(sig, q0, omega, phase_kind, phase_g, spacing, directions=m1, flux=need, **kw)
