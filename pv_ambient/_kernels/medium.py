@@ -400,3 +400,16 @@ def hat_medium(mode, field, table, lut_lo, lut_inv, aux, box_lo, box_hi, sig_out
                 sigs_out[i, j, k, 0] = sr / wsum
                 sigs_out[i, j, k, 1] = sg / wsum
                 sigs_out[i, j, k, 2] = sb / wsum
+
+
+@driver
+def scattering_to_albedo(sig, sigs):
+    """``sigs`` (nx, ny, nz, C), the scattering coefficient per channel, turned in place into the
+    albedo ``σs/σt`` clipped to [0, 1], 0 where ``sig`` (σt) is 0 (nothing scatters or absorbs
+    there): :func:`hat_medium`'s means as a medium, in one parallel pass."""
+    for i in prange(sig.shape[0]):
+        for j in range(sig.shape[1]):
+            for k in range(sig.shape[2]):
+                s = sig[i, j, k]
+                for c in range(sigs.shape[3]):
+                    sigs[i, j, k, c] = min(max(sigs[i, j, k, c] / s, 0.0), 1.0) if s > 0.0 else 0.0

@@ -305,11 +305,14 @@ def hat_medium(optics, geometry):
     (exactly for a physical medium, whose σt and albedo are trilinear; for binary data through
     a convex transfer function +20 % where the node samples are +116 %, tests/stages/test_diffusion_ordinates.py)."""
     from ..._kernels.medium import hat_medium as kernel
+    from ..._kernels.medium import scattering_to_albedo
 
     shape = tuple(int(n) for n in geometry.shape)
-    sig = np.zeros(shape)
-    sigs = np.zeros(shape + (3,))
+    sig = np.empty(shape)  # every node written by the kernel
+    alb = np.empty(shape + (3,))
     kernel(*optics_arrays(optics), np.asarray(geometry.box_lo, np.float64), np.asarray(geometry.box_hi, np.float64),
-           sig, sigs)
-    alb = np.where(sig[..., None] > 0, sigs / np.where(sig > 0, sig, 1.0)[..., None], 0.0)
-    return DiffusionMedium.from_arrays(sig, np.clip(alb, 0.0, 1.0))
+           sig, alb)
+    scattering_to_albedo(sig, alb)
+    # valid by construction (DiffusionMedium's checks need not scan them): means of a classified
+    # field, finite and ≥ 0, and an albedo clipped to [0, 1]
+    return DiffusionMedium(sig, alb)
