@@ -36,3 +36,8 @@ RECORD = 6
 #: Not a model: the lit record of a bake of two rgb slots — a point light's and the other lights'
 #: with diffusion's field — kept apart in four 32-bit words (:func:`.record.pair_light`).
 RECORD_PAIR = 7
+
+#: Not a model: the lit record of a grey bake of one slot — a white point light's or the directional
+#: lights' in-scattering under a grey albedo — in one 32-bit word per data sample
+#: (:func:`.record.grey_light`): one gather per corner, as an emission–absorption sample.
+RECORD_GREY = 8

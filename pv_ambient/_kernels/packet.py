@@ -54,12 +54,12 @@ from .geometry import camera_ray, ray_box
 from .majorant import block_at, block_span, empty_distance, run_end
 from .medium import (FULL_STEP, MODE_LUT, full_segment, step_column, step_lookup, step_opacity,
                      step_sample)
-from .models import (AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, RECORD, RECORD_PAIR,
-                     SINGLE_SCATTERING)
+from .models import (AMBIENT_SCATTERING, DIFFUSION, DRAFT, EMISSION_ABSORPTION, RECORD, RECORD_GREY,
+                     RECORD_PAIR, SINGLE_SCATTERING)
 from .draft import draft_source
 from .lanes import (A, ACT, DONE, DX, DY, DZ, FQ, LANES, LX, LY, LZ, N32, N64, OX, OY, OZ, PX, PY, PZ, Q0, QX,
                     QY, QZ, RB, RG, RR, SB, SG, SIDE, SR, T1, TB, TN, TR, TS, WX, WY, WZ, X, Y, Z, lanes_composite)
-from .packet_records import lanes_sample_draft, lanes_sample_record, lanes_sample_record_pair
+from .packet_records import lanes_sample_draft, lanes_sample_record, lanes_sample_record_grey, lanes_sample_record_pair
 from .baked import baked_grey, baked_rgb, diffusion_grey, diffusion_layout, diffusion_rgb, grid_point, point_weight
 from .raycast import STREAM_JITTER, TILE, index_ray, lit_table_source, row_stride, table_source
 from .raycast import raycast_image as raycast_image_scalar
@@ -412,7 +412,7 @@ def packet_driver(model):
         dfield = diffusion.field
         # pass 3 reads world positions (1/d²)
         lit = (model == SINGLE_SCATTERING or model == DIFFUSION or model == DRAFT or model == RECORD
-               or model == RECORD_PAIR)
+               or model == RECORD_PAIR or model == RECORD_GREY)
         n_rows = (row1 - row0 + TILE - 1) // TILE
         n_cols = (W + TILE - 1) // TILE
         n = n_rows * n_cols
@@ -439,7 +439,8 @@ def packet_driver(model):
 
 #: Each packet model's pass 3 (:func:`packet_driver`).
 PASS3 = {EMISSION_ABSORPTION: lanes_sample_ea, SINGLE_SCATTERING: lanes_sample_lit, DIFFUSION: lanes_sample_diffusion,
-         DRAFT: lanes_sample_draft, RECORD: lanes_sample_record, RECORD_PAIR: lanes_sample_record_pair}
+         DRAFT: lanes_sample_draft, RECORD: lanes_sample_record, RECORD_PAIR: lanes_sample_record_pair,
+         RECORD_GREY: lanes_sample_record_grey}
 
 #: :func:`packet_driver` of each model that runs in packets (compiled on first use).
 PACKET_DRIVERS = {model: packet_driver(model) for model in PASS3}
@@ -458,7 +459,7 @@ def applies(model, medium, grid) -> bool:
     (:mod:`.record`), of a LUT-mode medium."""
     if not enabled() or int(medium.mode) != MODE_LUT:
         return False
-    return model in (EMISSION_ABSORPTION, RECORD, RECORD_PAIR) or (
+    return model in (EMISSION_ABSORPTION, RECORD, RECORD_PAIR, RECORD_GREY) or (
         model in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION) and grid.baked != 0)
 
 

@@ -13,7 +13,7 @@ from .draft import draft_sample
 from .lanes import A, ACT, LANES, SB, SG, SR, WX, WY, WZ, X, Y, Z, lanes_composite
 from .medium import step_column, table_coords
 from .raycast import lit_table_source
-from .record import pair_values, record_values
+from .record import grey_values, pair_values, record_values
 
 @scalar(inline=True)
 def lanes_sample_draft(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
@@ -69,6 +69,25 @@ def lanes_sample_record_pair(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, l
         w = point_weight(lights, 0, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
                          l32[np.uint64(b32 + WZ * LANES + k)]) * sp
         sr, sg, sb = lit_table_source(stab, q0, fq, pr * w + dr * sd, pg * w + dg * sd, pb * w + db * sd)
+        l32[np.uint64(b32 + A * LANES + k)] = step_column(stab, q0, fq, 0) * l32[np.uint64(b32 + ACT * LANES + k)]
+        l32[np.uint64(b32 + SR * LANES + k)] = sr
+        l32[np.uint64(b32 + SG * LANES + k)] = sg
+        l32[np.uint64(b32 + SB * LANES + k)] = sb
+    lanes_composite(l32, b32, l64, b64)
+
+
+@scalar(inline=True)
+def lanes_sample_record_grey(l32, b32, l64, b64, field, stab, lut_lo, lut_inv, lights, grid, dfield):
+    """Pass 3 of a grey record (vectorised): :func:`lanes_sample_record` with one value of light,
+    :func:`.record.grey_values` — one gather per corner."""
+    power = np.float32(lights.power[0, 0])
+    for k in range(LANES):
+        s, v = grey_values(dfield, l32[np.uint64(b32 + X * LANES + k)], l32[np.uint64(b32 + Y * LANES + k)],
+                           l32[np.uint64(b32 + Z * LANES + k)])
+        q0, fq = table_coords(s, stab, lut_lo, lut_inv)
+        w = point_weight(lights, 0, l32[np.uint64(b32 + WX * LANES + k)], l32[np.uint64(b32 + WY * LANES + k)],
+                         l32[np.uint64(b32 + WZ * LANES + k)]) * power * v
+        sr, sg, sb = lit_table_source(stab, q0, fq, w, w, w)
         l32[np.uint64(b32 + A * LANES + k)] = step_column(stab, q0, fq, 0) * l32[np.uint64(b32 + ACT * LANES + k)]
         l32[np.uint64(b32 + SR * LANES + k)] = sr
         l32[np.uint64(b32 + SG * LANES + k)] = sg

@@ -31,9 +31,9 @@ from .baked import baked_light, diffusion_baked, diffusion_layout
 from .medium import (MODE_GRID, MODE_LUT, corner32, corners32, full_segment, lut_coords, lut_value,
                      step_albedo_emission, step_column, step_lookup, step_opacity, trilinear32, trilinear32_c)
 from .models import (AMBIENT_OCCLUSION, AMBIENT_SCATTERING, DIFFUSION, EMISSION_ABSORPTION, RAYCAST_MODELS, RECORD,
-                     RECORD_PAIR, SINGLE_SCATTERING)
+                     RECORD_GREY, RECORD_PAIR, SINGLE_SCATTERING)
 from .phase import phase_eval, phase_in
-from .record import pair_light, record_light
+from .record import grey_light, pair_light, record_light
 from .preint import d_lookup3, d_lookup3_in, tau_coord, tau_coord_in
 from .rng import uniform
 
@@ -324,7 +324,8 @@ def table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid, ambient
     table ``stab``: the colour for emission–absorption, :func:`occlusion_table_source` for ambient
     occlusion, else baked single scattering's ``a·L + (1 − a)·Le`` (the light first: the albedo and
     emission are not held across its loop over the slots), with diffusion's field beside the bake
-    for diffusion, or the light of a lit record (:data:`.models.RECORD`, :data:`.models.RECORD_PAIR`).
+    for diffusion, or the light of a lit record (:data:`.models.RECORD`, :data:`.models.RECORD_PAIR`,
+    :data:`.models.RECORD_GREY`).
     The per-pixel march, the CUDA kernels and the packet driver's scalar pass share it."""
     if model == EMISSION_ABSORPTION:
         return step_column(stab, q0, fq, 1), step_column(stab, q0, fq, 2), step_column(stab, q0, fq, 3)
@@ -335,6 +336,9 @@ def table_source(model, stab, q0, fq, x, y, z, wx, wy, wz, lights, grid, ambient
         return lit_table_source(stab, q0, fq, lr, lg, lb)
     if model == RECORD_PAIR:
         lr, lg, lb = pair_light(diffusion.field, lights, x, y, z, wx, wy, wz)
+        return lit_table_source(stab, q0, fq, lr, lg, lb)
+    if model == RECORD_GREY:
+        lr, lg, lb = grey_light(diffusion.field, lights, x, y, z, wx, wy, wz)
         return lit_table_source(stab, q0, fq, lr, lg, lb)
     lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
     if model == DIFFUSION:
@@ -415,7 +419,7 @@ def march_pixel(model, baked, mode, view, march, medium, lights, grid, ambient, 
                     continue
                 t_block = tex
             if mode == MODE_LUT and (model == EMISSION_ABSORPTION or model == AMBIENT_OCCLUSION or model == RECORD
-                                     or model == RECORD_PAIR or (baked and (model == SINGLE_SCATTERING or model
+                                     or model == RECORD_PAIR or model == RECORD_GREY or (baked and (model == SINGLE_SCATTERING or model
                                                                             == AMBIENT_SCATTERING or model == DIFFUSION))):
                 # a table TF's emission–absorption, ambient occlusion or baked lit sample (ambient
                 # scattering folds into the bake, diffusion's field is read beside it): the
@@ -567,7 +571,7 @@ def raycast_driver(model):
 
 
 #: :func:`raycast_driver` of every ray-cast model (compiled on first use).
-RAYCAST_DRIVERS = {model: raycast_driver(model) for model in RAYCAST_MODELS + (RECORD, RECORD_PAIR)}
+RAYCAST_DRIVERS = {model: raycast_driver(model) for model in RAYCAST_MODELS + (RECORD, RECORD_PAIR, RECORD_GREY)}
 
 
 def raycast_image(model, view, march, medium, lights, grid, ambient, diffusion, row0, row1, out_rad, out_alpha):

@@ -79,6 +79,43 @@ def record_light(rec, ref, x, y, z, wx, wy, wz):
 
 
 @scalar(force_inline=True)
+def unpack_grey(rec, i, j, k):
+    """The two values of a grey record ``rec`` (uint32 ``(m0, m1, m2, 1)``; :func:`pack_grey_nodes`)
+    at sample (i, j, k): the scalar's 16-bit code and the square of the light's square-root code
+    (float32)."""
+    w0 = np.uint32(rec[i, j, k, np.uint32(0)])
+    v = np.float32(w0 >> np.uint32(16))
+    return np.float32(w0 & np.uint32(0xFFFF)), v * v
+
+
+@scalar(force_inline=True)
+def lerp2(a, b, f):
+    """``a + f·(b − a)`` of two 2-tuples."""
+    return a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])
+
+
+@scalar(force_inline=True)
+def grey_values(rec, x, y, z):
+    """The grey record's two values (:func:`unpack_grey`) interpolated trilinearly at index-space
+    point (x, y, z) (float32; one gather per corner, as an emission–absorption sample's)."""
+    i0, i1, fx, j0, j1, fy, k0, k1, fz = corners32(rec.shape[0], rec.shape[1], rec.shape[2], x, y, z)
+    c00 = lerp2(unpack_grey(rec, i0, j0, k0), unpack_grey(rec, i1, j0, k0), fx)
+    c10 = lerp2(unpack_grey(rec, i0, j1, k0), unpack_grey(rec, i1, j1, k0), fx)
+    c01 = lerp2(unpack_grey(rec, i0, j0, k1), unpack_grey(rec, i1, j0, k1), fx)
+    c11 = lerp2(unpack_grey(rec, i0, j1, k1), unpack_grey(rec, i1, j1, k1), fx)
+    return lerp2(lerp2(c00, c10, fy), lerp2(c01, c11, fy), fz)
+
+
+@scalar(force_inline=True)
+def grey_light(rec, ref, x, y, z, wx, wy, wz):
+    """The in-scattered light per unit albedo (rgb, float32; the three equal) of grey record ``rec``
+    at index-space point (x, y, z), world point w: :func:`record_light` of one channel."""
+    _, v = grey_values(rec, x, y, z)
+    w = point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz)) * np.float32(ref.power[0, 0])
+    return v * w, v * w, v * w
+
+
+@scalar(force_inline=True)
 def unpack_pair(rec, i, j, k):
     """The seven values of a pair record ``rec`` (uint32 ``(m0, m1, m2, 4)``; :func:`pack_pair_nodes`)
     at sample (i, j, k): the scalar's code, then the squares of the point slot's and of the other
@@ -189,6 +226,20 @@ def pack_light_nodes(field, lights, grid, i2w, ref, m, lut_lo, lut_inv, top, out
                 qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
                 out[i, j, k, 0] = qs | (_code(r, top) << np.uint32(16))
                 out[i, j, k, 1] = _code(g, top) | (_code(b, top) << np.uint32(16))
+                codes[i, j, k] = np.float32(qs)
+
+
+@driver
+def pack_grey_nodes(field, lights, grid, i2w, ref, m, lut_lo, lut_inv, top, out, codes):
+    """Shade and pack the grey record ``out`` (uint32 ``field.shape + (1,)``) of scalar ``field`` and a
+    grey bake (its three channels equal): :func:`pack_light_nodes` with one word ``s | v`` per sample,
+    ``v`` the light's square-root code over ``top``."""
+    for i in prange(out.shape[0]):
+        for j in range(out.shape[1]):
+            for k in range(out.shape[2]):
+                r, _, _ = node_light(lights, grid, i2w, ref, i, j, k)
+                qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
+                out[i, j, k, 0] = qs | (_code(r, top) << np.uint32(16))
                 codes[i, j, k] = np.float32(qs)
 
 

@@ -21,7 +21,7 @@ def _scale(tops) -> float:
     return top if top > 0.0 else 1.0
 
 
-def packed_light_record(medium, lights, grid, index_to_world, ref):
+def packed_light_record(medium, lights, grid, index_to_world, ref, grey=False):
     """The lit record of scalar ``medium.field`` with the frame's Lights record ``lights`` and baked
     light grid ``grid`` (its nodes the data samples), times the weight of reference ``ref``
     (:func:`pv_ambient.rendering.draft.reference`), shaded and packed in one pass
@@ -30,17 +30,18 @@ def packed_light_record(medium, lights, grid, index_to_world, ref):
     :func:`pv_ambient.stages.draft.pack_record` returns them. No shaded copy is held: the first
     frame's peak memory grows by the words and the codes only. The march keeps the frame's majorant
     grid: its empty blocks, and so the samples a ray takes, stay those of the frame the record
-    replaces."""
-    from .._kernels.record import CODE, light_tops, pack_light_nodes
+    replaces. ``grey``: the bake's one grey slot in one word per sample
+    (:func:`pv_ambient._kernels.record.pack_grey_nodes`)."""
+    from .._kernels.record import CODE, light_tops, pack_grey_nodes, pack_light_nodes
 
     field, i2w = medium.field, np.asarray(index_to_world, np.float64)
     m = float(medium.table.shape[0] - 1)
     tops = np.zeros(field.shape[0], np.float64)
     light_tops(field, lights, grid, i2w, ref, tops)
     top = _scale(tops)
-    words = np.empty(tuple(field.shape) + (2,), np.uint32)
+    words = np.empty(tuple(field.shape) + ((1,) if grey else (2,)), np.uint32)
     codes = np.empty(field.shape, np.float32)
-    pack_light_nodes(field, lights, grid, i2w, ref, m, float(medium.lut_lo), float(medium.lut_inv), top, words, codes)
+    (pack_grey_nodes if grey else pack_light_nodes)(field, lights, grid, i2w, ref, m, float(medium.lut_lo), float(medium.lut_inv), top, words, codes)
     return words, codes, top / float(CODE) ** 2, (CODE / 3.0, 3.0 * m / CODE)
 
 

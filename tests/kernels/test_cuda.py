@@ -131,12 +131,12 @@ def test_one_kernel_per_specialisation(sim):
     """The CUDA side compiles one ray-cast kernel per specialisation (model, baked lights, medium
     mode), the CPU one driver per model, and each model's render launched its own kernel."""
     from pv_ambient._kernels import raycast
-    from pv_ambient._kernels.models import RECORD, RECORD_PAIR
+    from pv_ambient._kernels.models import RECORD, RECORD_GREY, RECORD_PAIR
 
     out, _ = sim
     assert [tuple(k) for k in out["raycast_kernels"]] == sorted(raycast.SPECIALISATIONS)
     # the CPU: one driver per model, and one per lit record's march (the scalar fallback reads them)
-    assert sorted(raycast.RAYCAST_DRIVERS) == sorted(raycast.RAYCAST_MODELS + (RECORD, RECORD_PAIR))
+    assert sorted(raycast.RAYCAST_DRIVERS) == sorted(raycast.RAYCAST_MODELS + (RECORD, RECORD_PAIR, RECORD_GREY))
     launched = out["launched"]
     assert launched["emission_absorption/cam0"] == [[0, 0, 0]]
     assert launched["ambient_occlusion/cam0"] == [[1, 0, 0]]
