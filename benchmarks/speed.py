@@ -605,7 +605,8 @@ def packet_line():
         return "camera pass: the scalar driver everywhere (PV_AMBIENT_PACKETS=0)"
     from pv_ambient.rendering import record
 
-    lit = ("rgb bakes on the data samples through the lit record (docs/performance.rst)" if record.enabled()
+    lit = ("bakes of one slot (grey or rgb) or two rgb slots on the data samples through the lit record"
+           " (docs/performance.rst)" if record.enabled()
            else "the lit record off (PV_AMBIENT_RECORD=0)")
     return (f"camera pass: emission-absorption and baked single/ambient scattering and diffusion of a table TF in packets of "
             f"{packet.LANES} rays, loads {pol['loads']}, vectors {pol['width']} ({pol['why']}), {lit}; the others one ray "
