@@ -116,6 +116,7 @@ class AmbientVolume(DragStep):
         self._key = None
         self._pass = None
         self._timer = None
+        self._multisamples = None  # the window's multisampling, held back while a drag renders without it
         # path tracing in interactive mode: the samples so far, and the view they are taken with
         self._refinement = Refinement(model, self.options, interactive_samples, self._render_volume)
 
@@ -250,7 +251,7 @@ class AmbientVolume(DragStep):
                 raise ValueError(f"opaque geometry in the plotter cannot occlude a {self.model} volume (ray_end is "
                                  "supported by the ray-cast models); use a ray-cast model or occlusion=False")
             if self._pass is None:
-                self._pass = GeometryPass(self.plotter.ren_win.GetMultiSamples())
+                self._pass = GeometryPass(self._multisamples or self.plotter.ren_win.GetMultiSamples())
             rgba, z, (near, far) = self._pass.run(self.vtk_renderer, occluders, cam, size)
             ray_end = ray_distance_from_depth(z, near, far, cam, size)
             t_geometry = time.perf_counter() - t0
@@ -349,6 +350,7 @@ class AmbientVolume(DragStep):
     # -- interactive mode ---------------------------------------------------------------------------
     def _on_start(self, obj=None, event=None):
         try:
+            self._drag_multisamples()
             if self._resizing():
                 return
             self.update()
@@ -356,6 +358,23 @@ class AmbientVolume(DragStep):
         except Exception as exc:  # an exception must not escape into VTK's render loop
             self.error = exc
             warnings.warn(f"pv_ambient: interactive update failed: {exc!r}", RuntimeWarning, stacklevel=2)
+
+    def _drag_multisamples(self):
+        """A drag frame renders the window without multisampling, the resting frame with the
+        window's own (docs/guide.rst, "In a plotter"): the picture is a textured plane, whose
+        smoothing is the ray cast's, and with a software OpenGL (a server without a GPU, Mesa's
+        llvmpipe) 4× multisampling is most of the window's time per frame; the edges of other
+        meshes alias until the camera rests."""
+        win = self.plotter.ren_win
+        if win is None:
+            return
+        if self.moving:
+            if self._multisamples is None and win.GetMultiSamples() > 0:
+                self._multisamples = win.GetMultiSamples()
+                win.SetMultiSamples(0)
+        elif self._multisamples is not None:
+            win.SetMultiSamples(self._multisamples)
+            self._multisamples = None
 
     def _on_timer(self, obj=None, event=None):
         try:
@@ -394,6 +413,9 @@ class AmbientVolume(DragStep):
         if self.observer is not None:
             if self.plotter.ren_win is not None:
                 self.plotter.ren_win.RemoveObserver(self.observer)
+                if self._multisamples is not None:  # left in a drag: the window's own back
+                    self.plotter.ren_win.SetMultiSamples(self._multisamples)
+            self._multisamples = None
             self.observer = None
         self.interactive = False
         if self._timer is not None:

@@ -59,6 +59,35 @@ def test_drag_renders_reduced_and_the_resting_frame_is_a_normal_render(scene, mo
     pl.close()
 
 
+@pytest.mark.parametrize("samples", [4, 0])
+def test_drag_frames_render_the_window_without_multisampling(scene, samples):
+    """While the camera is dragged the window renders without multisampling (the plane's picture
+    gains nothing from it, and a software OpenGL spends most of a frame on it); the resting frame
+    and leaving interactive mode give the window its own setting back; a window without it stays so."""
+    grid, tf, _ = scene
+    pl = plotter(SIZE)
+    win = pl.ren_win
+    win.SetMultiSamples(samples)
+    vol = pa.add_ambient_volume(pl, grid, transfer_function=tf, model="emission_absorption", interactive=True)
+    seen = []
+    win.AddObserver("EndEvent", lambda *a: seen.append(win.GetMultiSamples()))
+    win.SetDesiredUpdateRate(15.0)
+    for _ in range(2):
+        pl.camera.Azimuth(5.0)
+        win.Render()
+    win.SetDesiredUpdateRate(0.0001)
+    pl.camera.Azimuth(5.0)
+    win.Render()
+    assert seen == [0, 0, samples] and not vol.moving and vol.renders == 4
+    win.SetDesiredUpdateRate(15.0)
+    pl.camera.Azimuth(5.0)
+    win.Render()
+    assert seen[-1] == 0
+    vol.remove_observer()  # left in the middle of a drag
+    assert win.GetMultiSamples() == samples
+    pl.close()
+
+
 def test_not_interactive_ignores_the_rate(scene):
     grid, tf, lights = scene
     pl = plotter(SIZE)
