@@ -2,23 +2,21 @@
 shares with a draft frame's (:mod:`.draft`).
 
 A baked lit sample otherwise reads the scalar and the bake's light slots at its eight corners,
-from separate arrays: four gathers per corner for one rgb slot, from two cache lines. The record
-holds, per data sample, the scalar and the lights' in-scattered light per unit albedo
-(:func:`.baked.baked_light`, its slots summed) times ``max(d², d2min)`` to a *reference* point —
-the first point light, whose baked slot holds exactly that — packed into two 32-bit words of
-16-bit codes (:func:`pack_nodes`): two gathers per corner, from one cache line. The sample divides
-by its own ``max(d², d2min)`` to the reference (:func:`record_light`) and classifies the
-interpolated scalar through the step-corrected table as every table sample does, so the transfer
-function's albedo and emission stay post-classified. With the bake one slot (one point light, or
-directional lights and diffusion's field under a constant reference weight) the record's light is
-the bake's; the codes round the scalar to 3·(n − 1)/65535 of a table entry and the light to
-1.5e-5 of its largest value at the top (0.1 % of a value a thousandth of it). Summed over more
-slots, another slot's light would be interpolated times the reference's ``d²``, which trilinear
-interpolation overestimates near the reference: a point light's slot beside the other lights'
-(diffusion's field with a point light) has a *pair record* of four words instead, the slots apart
-(:func:`pack_pair_nodes`, :func:`pair_light`) — four gathers per corner where the bake takes
-seven.
-"""
+from separate arrays: two gathers per corner for a grey slot, four for an rgb one, from two cache
+lines. The record holds, per data sample, the scalar and the bake's slot — the in-scattered light
+per unit albedo (:func:`.baked.baked_light`) times ``max(d², d2min)`` to a *reference* point, the
+slot's point light, or with directional lights alone a constant — as 16-bit codes in 32-bit words
+(:func:`pack_slot_nodes`): a grey slot in one word, one gather per corner; an rgb one in two, two
+gathers from one cache line. The sample divides by its own ``max(d², d2min)`` to the reference
+(:func:`record_light`, :func:`grey_light`) and classifies the interpolated scalar through the
+step-corrected table as every table sample does, so the transfer function's albedo and emission
+stay post-classified. The codes round the scalar to 3·(n − 1)/65535 of a table entry and the
+light to 1.5e-5 of its largest value at the top (0.1 % of a value a thousandth of it). Summed over
+more slots, another slot's light would be interpolated times the reference's ``d²``, which
+trilinear interpolation overestimates near the reference: a point light's rgb slot beside the
+other lights' (diffusion's field with a point light) has a *pair record* of four words instead,
+the slots apart (:func:`pack_pair_nodes`, :func:`pair_light`) — four gathers per corner where the
+bake takes seven."""
 
 from __future__ import annotations
 
@@ -27,7 +25,7 @@ import math
 import numpy as np
 
 from ._jit import driver, prange, scalar
-from .baked import baked_light, point_weight
+from .baked import point_weight
 from .medium import corners32
 
 #: The largest 16-bit code of a packed record's values (:func:`pack_nodes`).
@@ -165,23 +163,6 @@ def pair_light(rec, ref, x, y, z, wx, wy, wz):
     return pr * w + dr * sd, pg * w + dg * sd, pb * w + db * sd
 
 
-@scalar(force_inline=True)
-def node_light(lights, grid, i2w, ref, i, j, k):
-    """The lit record's light (rgb, float32) at data sample (i, j, k): the baked in-scattered light
-    (:func:`.baked.baked_light` of the frame's ``lights`` and light grid ``grid``, whose nodes are the
-    data samples) times ``max(d², d2min)`` to the reference point, light 0 of ``ref``; ``i2w`` the
-    data's index → world affine map."""
-    x = np.float64(i)
-    y = np.float64(j)
-    z = np.float64(k)
-    wx = i2w[0, 0] * x + i2w[0, 1] * y + i2w[0, 2] * z + i2w[0, 3]
-    wy = i2w[1, 0] * x + i2w[1, 1] * y + i2w[1, 2] * z + i2w[1, 3]
-    wz = i2w[2, 0] * x + i2w[2, 1] * y + i2w[2, 2] * z + i2w[2, 3]
-    lr, lg, lb = baked_light(x, y, z, wx, wy, wz, lights, grid)
-    w = np.float32(1.0) / point_weight(ref, 0, np.float32(wx), np.float32(wy), np.float32(wz))
-    return np.float32(lr * w), np.float32(lg * w), np.float32(lb * w)
-
-
 @scalar(inline=True)
 def finite_max(best, v):
     """The larger of ``best`` and ``v`` where ``v`` is finite (float64)."""
@@ -190,17 +171,15 @@ def finite_max(best, v):
 
 
 @driver
-def light_tops(field, lights, grid, i2w, ref, tops):
-    """Per plane ``i`` of the data samples, the largest finite channel of :func:`node_light`
-    (at least 0; float64 ``tops``, one per plane): the lit record's scale is their maximum. The
-    light is shaded again when packed (:func:`pack_light_nodes`) instead of held: a shaded copy
-    would be four float32 values per data sample at the first frame's peak."""
-    for i in prange(field.shape[0]):
+def plane_tops(inc, tops):
+    """Per plane ``i``, the largest finite value (at least 0) of bake ``inc``'s channels (float64
+    ``tops``, one per plane): a one-slot record's scale, without a float64 copy of the bake."""
+    for i in prange(inc.shape[0]):
         best = 0.0
-        for j in range(field.shape[1]):
-            for k in range(field.shape[2]):
-                r, g, b = node_light(lights, grid, i2w, ref, i, j, k)
-                best = finite_max(finite_max(finite_max(best, r), g), b)
+        for j in range(inc.shape[1]):
+            for k in range(inc.shape[2]):
+                for c in range(inc.shape[3]):
+                    best = finite_max(best, inc[i, j, k, c])
         tops[i] = best
 
 
@@ -214,33 +193,28 @@ def scalar_code(s, m, lut_lo, lut_inv):
 
 
 @driver
-def pack_light_nodes(field, lights, grid, i2w, ref, m, lut_lo, lut_inv, top, out, codes):
-    """Shade and pack the lit record ``out`` (uint32 ``field.shape + (2,)``) of scalar ``field``:
-    :func:`scalar_code` and :func:`node_light`'s square-root codes over ``top`` — words ``s | r``,
-    ``g | b``, as :func:`pack_nodes` packs a shaded record; ``codes`` (float32, ``field.shape``)
-    receives the scalar codes (the scalar pass's field)."""
-    for i in prange(out.shape[0]):
-        for j in range(out.shape[1]):
-            for k in range(out.shape[2]):
-                r, g, b = node_light(lights, grid, i2w, ref, i, j, k)
-                qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
-                out[i, j, k, 0] = qs | (_code(r, top) << np.uint32(16))
-                out[i, j, k, 1] = _code(g, top) | (_code(b, top) << np.uint32(16))
-                codes[i, j, k] = np.float32(qs)
-
-
-@driver
-def pack_grey_nodes(field, lights, grid, i2w, ref, m, lut_lo, lut_inv, top, out, codes):
-    """Shade and pack the grey record ``out`` (uint32 ``field.shape + (1,)``) of scalar ``field`` and a
-    grey bake (its three channels equal): :func:`pack_light_nodes` with one word ``s | v`` per sample,
-    ``v`` the light's square-root code over ``top``."""
-    for i in prange(out.shape[0]):
-        for j in range(out.shape[1]):
-            for k in range(out.shape[2]):
-                r, _, _ = node_light(lights, grid, i2w, ref, i, j, k)
-                qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
-                out[i, j, k, 0] = qs | (_code(r, top) << np.uint32(16))
-                codes[i, j, k] = np.float32(qs)
+def pack_slot_nodes(field, inc, m, lut_lo, lut_inv, top, out, codes):
+    """Pack the record ``out`` of scalar ``field`` and a bake ``inc`` of one slot on the data samples
+    (grey: one channel, ``out`` uint32 ``field.shape + (1,)``, words ``s | v``; rgb: three,
+    ``field.shape + (2,)``, words ``s | r``, ``g | b``): :func:`scalar_code` and the slot's
+    square-root codes over ``top``. The slot is the record's light as it stands — a point light's
+    holds its light times ``max(d², d2min)`` to it, the reference — so nothing is shaded again;
+    ``codes`` (float32, ``field.shape``) receives the scalar codes (the scalar pass's field)."""
+    if out.shape[3] == 1:
+        for i in prange(out.shape[0]):
+            for j in range(out.shape[1]):
+                for k in range(out.shape[2]):
+                    qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
+                    out[i, j, k, 0] = qs | (_code(inc[i, j, k, 0], top) << np.uint32(16))
+                    codes[i, j, k] = np.float32(qs)
+    else:
+        for i in prange(out.shape[0]):
+            for j in range(out.shape[1]):
+                for k in range(out.shape[2]):
+                    qs = scalar_code(field[i, j, k], m, lut_lo, lut_inv)
+                    out[i, j, k, 0] = qs | (_code(inc[i, j, k, 0], top) << np.uint32(16))
+                    out[i, j, k, 1] = _code(inc[i, j, k, 1], top) | (_code(inc[i, j, k, 2], top) << np.uint32(16))
+                    codes[i, j, k] = np.float32(qs)
 
 
 @driver

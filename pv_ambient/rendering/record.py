@@ -78,8 +78,7 @@ def _record(renderer, args, ref, kind):
     if key in cache and same_inputs(cache[key][0], inputs):
         return cache[key][1]
     if kind in (RECORD, RECORD_GREY):
-        packed = packed_light_record(medium, lights, grid, renderer.geometry.index_to_world, ref,
-                                     grey=kind == RECORD_GREY)
+        packed = packed_light_record(medium, lights, grid, ref)
     else:
         packed = packed_pair_record(medium, grid)
     cache[key] = (held_inputs(inputs), packed)

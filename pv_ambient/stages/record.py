@@ -21,28 +21,34 @@ def _scale(tops) -> float:
     return top if top > 0.0 else 1.0
 
 
-def packed_light_record(medium, lights, grid, index_to_world, ref, grey=False):
-    """The lit record of scalar ``medium.field`` with the frame's Lights record ``lights`` and baked
-    light grid ``grid`` (its nodes the data samples), times the weight of reference ``ref``
-    (:func:`pv_ambient.rendering.draft.reference`), shaded and packed in one pass
-    (:func:`pv_ambient._kernels.record.pack_light_nodes`; its scale from a first pass,
-    :func:`pv_ambient._kernels.record.light_tops`): ``(words, codes, scale, lut)`` as
-    :func:`pv_ambient.stages.draft.pack_record` returns them. No shaded copy is held: the first
+def packed_light_record(medium, lights, grid, ref):
+    """The lit record of scalar ``medium.field`` and light grid ``grid``, whose bake ``grid.inc`` is
+    one slot on the data samples (grey or rgb), for the frame's Lights record ``lights`` and
+    reference ``ref`` (:func:`pv_ambient.rendering.draft.reference`), packed in one pass
+    (:func:`pv_ambient._kernels.record.pack_slot_nodes`; its scale from a first pass,
+    :func:`pv_ambient._kernels.record.plane_tops`): ``(words, codes, scale, lut)`` as
+    :func:`pv_ambient.stages.draft.pack_record` returns them, one word per sample for a grey slot,
+    two for an rgb one. The slot is the record's light: a point light's (the reference) holds its
+    light times ``max(d², d2min)`` already; directional lights' is read under the reference's
+    constant weight ``1/d2min``, which the scale takes back. No shaded copy is held: the first
     frame's peak memory grows by the words and the codes only. The march keeps the frame's majorant
     grid: its empty blocks, and so the samples a ray takes, stay those of the frame the record
-    replaces. ``grey``: the bake's one grey slot in one word per sample
-    (:func:`pv_ambient._kernels.record.pack_grey_nodes`)."""
-    from .._kernels.record import CODE, light_tops, pack_grey_nodes, pack_light_nodes
+    replaces."""
+    from .._kernels.record import CODE, pack_slot_nodes, plane_tops
 
-    field, i2w = medium.field, np.asarray(index_to_world, np.float64)
+    field, inc = medium.field, grid.inc
     m = float(medium.table.shape[0] - 1)
     tops = np.zeros(field.shape[0], np.float64)
-    light_tops(field, lights, grid, i2w, ref, tops)
+    plane_tops(inc, tops)
     top = _scale(tops)
-    words = np.empty(tuple(field.shape) + ((1,) if grey else (2,)), np.uint32)
+    # the sample multiplies the record by its weight to the reference, 1/max(d², d2min) in float32:
+    # with no point light a constant, 1/d2min, which the scale divides out
+    points = bool(np.any(np.asarray(lights.kind) == 0))
+    undo = 1.0 if points else 1.0 / float(np.float32(1.0) / np.float32(ref.d2min))
+    words = np.empty(tuple(field.shape) + ((1,) if inc.shape[3] == 1 else (2,)), np.uint32)
     codes = np.empty(field.shape, np.float32)
-    (pack_grey_nodes if grey else pack_light_nodes)(field, lights, grid, i2w, ref, m, float(medium.lut_lo), float(medium.lut_inv), top, words, codes)
-    return words, codes, top / float(CODE) ** 2, (CODE / 3.0, 3.0 * m / CODE)
+    pack_slot_nodes(field, inc, m, float(medium.lut_lo), float(medium.lut_inv), top, words, codes)
+    return words, codes, top * undo / float(CODE) ** 2, (CODE / 3.0, 3.0 * m / CODE)
 
 
 def packed_pair_record(medium, grid):

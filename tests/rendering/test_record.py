@@ -146,8 +146,7 @@ def test_packing_holds_no_shaded_copy(lights, monkeypatch):
     tracemalloc.start()
     try:
         if kind != RECORD_PAIR:
-            words, codes, _, _ = packed_light_record(medium, args[4], grid, r.geometry.index_to_world, ref,
-                                                     grey=kind == RECORD_GREY)
+            words, codes, _, _ = packed_light_record(medium, args[4], grid, ref)
         else:
             words, codes, _, _ = packed_pair_record(medium, grid)
         _, peak = tracemalloc.get_traced_memory()
