@@ -1,6 +1,7 @@
 """The ray step of an interactive drag (docs/jupyter.rst, "Server rendering"): while the camera
 is dragged the picture is rendered at a longer ray step, chosen so that a frame fits the time the
-render window asks for, as VTK's ``AutoAdjustSampleDistances`` does for its own mappers.
+render window asks for, as VTK's ``AutoAdjustSampleDistances`` does for its own mappers; and the
+window drawn without multisampling meanwhile (:func:`drag_multisamples`).
 """
 
 from __future__ import annotations
@@ -97,3 +98,21 @@ class DragStep:
 
     def _budget(self):
         return 1.0 / self.plotter.ren_win.GetDesiredUpdateRate()
+
+
+def drag_multisamples(window, moving, held):
+    """Render window ``window``'s multisampling for this frame, and the setting held back (returned;
+    None when none is): a drag frame (``moving``) renders without it, the resting frame with the
+    window's own (docs/guide.rst, "In a plotter"). The picture is a textured plane, smoothed by the
+    ray cast; with a software OpenGL (Mesa's llvmpipe, a server without a GPU) 4× multisampling is
+    most of the window's time per frame. Other meshes' edges alias until the camera rests."""
+    if window is None:
+        return held
+    if moving:
+        if held is None and window.GetMultiSamples() > 0:
+            held = window.GetMultiSamples()
+            window.SetMultiSamples(0)
+    elif held is not None:
+        window.SetMultiSamples(held)
+        held = None
+    return held

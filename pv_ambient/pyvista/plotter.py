@@ -18,7 +18,7 @@ from ..inputs.validation import check_int, check_real, check_window_size
 from ..rendering.renderer import Renderer
 from ..rendering.request import warn_unused_lights
 from ..rendering.result import DISPLAY_KEYS, RenderResult, unknown_display_keys
-from .drag import MOVING_RATE, STEP_GROW, STEP_SHRINK, DragStep  # noqa: F401
+from .drag import MOVING_RATE, STEP_GROW, STEP_SHRINK, DragStep, drag_multisamples  # noqa: F401
 from .geometry import (GeometryPass, background_image, composite_for_display, is_opaque_mesh,
                        ray_distance_from_depth)
 from .plane import add_result_plane, write_texture
@@ -350,7 +350,7 @@ class AmbientVolume(DragStep):
     # -- interactive mode ---------------------------------------------------------------------------
     def _on_start(self, obj=None, event=None):
         try:
-            self._drag_multisamples()
+            self._multisamples = drag_multisamples(self.plotter.ren_win, self.moving, self._multisamples)
             if self._resizing():
                 return
             self.update()
@@ -358,23 +358,6 @@ class AmbientVolume(DragStep):
         except Exception as exc:  # an exception must not escape into VTK's render loop
             self.error = exc
             warnings.warn(f"pv_ambient: interactive update failed: {exc!r}", RuntimeWarning, stacklevel=2)
-
-    def _drag_multisamples(self):
-        """A drag frame renders the window without multisampling, the resting frame with the
-        window's own (docs/guide.rst, "In a plotter"): the picture is a textured plane, whose
-        smoothing is the ray cast's, and with a software OpenGL (a server without a GPU, Mesa's
-        llvmpipe) 4× multisampling is most of the window's time per frame; the edges of other
-        meshes alias until the camera rests."""
-        win = self.plotter.ren_win
-        if win is None:
-            return
-        if self.moving:
-            if self._multisamples is None and win.GetMultiSamples() > 0:
-                self._multisamples = win.GetMultiSamples()
-                win.SetMultiSamples(0)
-        elif self._multisamples is not None:
-            win.SetMultiSamples(self._multisamples)
-            self._multisamples = None
 
     def _on_timer(self, obj=None, event=None):
         try:
