@@ -12,7 +12,8 @@ or a device.
 The CUDA side keeps a :class:`DeviceCache` per :class:`~pv_ambient.Renderer`: the volume, its
 lookup tables, majorant, ball (σ̄) grid, preintegrated table and light volumes are uploaded once
 and stay on the GPU between renders, so a camera move is one kernel launch and one image
-download; a relight sweeps the new light's optical depth on the GPU (the rest stays resident).
+download; a relight sweeps the new light's optical depth on the GPU and rebakes its slot of the
+lights' in-scattering there (:func:`bake`; the rest stays resident).
 ``NUMBA_ENABLE_CUDASIM=1`` (set before numba is first imported) runs the CUDA drivers in Numba's
 simulator — slow, pure Python, but the same code path: the test suite uses it on tiny scenes.
 
