@@ -12,7 +12,8 @@ or a device.
 The CUDA side keeps a :class:`DeviceCache` per :class:`~pv_ambient.Renderer`: the volume, its
 lookup tables, majorant, ball (σ̄) grid, preintegrated table and light volumes are uploaded once
 and stay on the GPU between renders, so a camera move is one kernel launch and one image
-download; a relight sweeps the new light's optical depth on the GPU (the rest stays resident).
+download; a relight sweeps the new light's optical depth on the GPU and rebakes its slot of the
+lights' in-scattering there (:func:`bake`; the rest stays resident).
 ``NUMBA_ENABLE_CUDASIM=1`` (set before numba is first imported) runs the CUDA drivers in Numba's
 simulator — slow, pure Python, but the same code path: the test suite uses it on tiny scenes.
 
@@ -373,6 +374,55 @@ def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out)
                 done += 1
                 k += s
     out[:] = d_out.copy_to_host()
+    cache.put(out, d_out)
+
+
+def bake(cache: DeviceCache, model_id, parts, clear, fold, records, w2i, i2w, lo, step, nch, out, fresh):
+    """The bake of :func:`pv_ambient.stages.bake.bake_incident` on the GPU, one thread per light-grid
+    node (:data:`pv_ambient._kernels.cuda.BAKE_KERNELS`, the CPU's :func:`~pv_ambient._kernels.bake.bake_node`):
+    the channel ranges ``clear`` ((first, count) pairs) set to 0, then each of ``parts`` —
+    ``(q, lights, tau, phi)``: one light's Lights record, its optical depth and front (``phi`` None:
+    the optical depth again) — added to slot ``q``, then ``fold`` — ``(diffusion, q)`` or None —
+    added to slot ``q``. ``records`` are the light grid's and Ambient records (the grid's ``tau`` and
+    ``phi`` placeholders, replaced per light).
+
+    The bake is made in the device copy of ``out`` — a new device array when ``fresh`` (every slot is
+    cleared and baked), else the copy the cache holds (a relight rebaking in place: the slots kept
+    stay on the device) or an upload of ``out`` — and downloaded into ``out``; the cache then holds
+    that device copy, so the ray cast that reads the bake uploads nothing. The optical depths come
+    from the cache too (the GPU's sweep left them there). Raises :class:`DeviceMemoryError` before
+    any upload or launch when the arrays would not fit."""
+    from numba import cuda
+
+    from ._kernels.cuda import BAKE_KERNELS, BLOCK3, clear_kernel, fold_kernel, grid3_for
+    from ._kernels.records import arrays
+    from .device_cache import device_reshape
+
+    grec, arec = records
+    inputs = [a for _q, _l, tau, phi in parts for a in (tau, phi) if a is not None] + arrays(arec)
+    check_fits(cache, inputs + ([fold[0]] if fold is not None else []) + [out])
+    d_out = cuda.device_array(out.shape, np.float32) if fresh else cache.get(out)
+    d_w2i, d_i2w, d_lo, d_step = (cache.get(np.ascontiguousarray(a, np.float64)) for a in (w2i, i2w, lo, step))
+
+    def volume(a):  # a light's volume as the records take it: (m0, m1, m2, channels)
+        d = cache.get(a)
+        return device_reshape(d, a.shape + (1,)) if a.ndim == 3 else d
+
+    blocks = grid3_for(out.shape)
+    kernel = BAKE_KERNELS[model_id]
+    on_samples = bool(np.all(np.asarray(lo) == 0.0) and np.all(np.asarray(step) == 1.0)
+                      and tuple(arec.ball.shape[:3]) == tuple(out.shape[:3]))  # as the CPU driver decides
+    with _launch():
+        for q, n in clear:
+            clear_kernel[blocks, BLOCK3](q, n, d_out)
+        for q, lights, tau, phi in parts:
+            d_tau = volume(tau)
+            d_lights, d_ambient = cache.args((lights, arec))
+            d_grid = cache.args((grec,))[0]._replace(tau=d_tau, phi=d_tau if phi is None else volume(phi))
+            kernel[blocks, BLOCK3](d_lights, d_grid, d_ambient, d_w2i, d_i2w, d_lo, d_step, nch, q, on_samples, d_out)
+        if fold is not None:
+            fold_kernel[blocks, BLOCK3](cache.get(fold[0]), fold[1], nch, d_out)
+    d_out.copy_to_host(out)
     cache.put(out, d_out)
 
 

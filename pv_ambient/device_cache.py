@@ -248,10 +248,15 @@ def _record_key(rec):
 
 def _device_view(flat, start, shape):
     """The C-contiguous device view of ``flat[start:start + prod(shape)]`` as ``shape``."""
-    part = flat[start:start + int(np.prod(shape))]
-    view = part.reshape(shape)
+    return device_reshape(flat[start:start + int(np.prod(shape))], shape)
+
+
+def device_reshape(dev, shape):
+    """The C-contiguous device array ``dev`` viewed as ``shape`` (no copy): a light's optical depth
+    (m0, m1, m2) as the (m0, m1, m2, 1) the kernels' records take."""
+    view = dev.reshape(tuple(shape))
     # numba-cuda's reshape is a device array; the simulator's returns the wrapped numpy array
-    return view if hasattr(view, "copy_to_host") else type(part)(view)
+    return view if hasattr(view, "copy_to_host") else type(dev)(view)
 
 
 def image_buffers(h, w, zero=True):

@@ -94,15 +94,31 @@ def bake_incident(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, out)
                 bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, on_samples, i, j, k, out)
 
 
+@scalar(inline=True)
+def fold_node(diff, q, nch, i, j, k, out):
+    """Node (i, j, k) of :func:`bake_diffusion`: adds diffusion's ``max(φ_c, 0)/4π`` to the ``nch``
+    channels of slot ``q`` (its first channel)."""
+    per, nd = diffusion_layout(diff.shape[3])
+    for c in range(nch):
+        out[i, j, k, q + c] += max(diff[i, j, k, per * min(c, nd - 1)], 0.0) * INV_4PI_RC
+
+
+@scalar(inline=True)
+def clear_node(q, n, i, j, k, out):
+    """Node (i, j, k): channels ``q … q + n − 1`` of ``out`` set to 0 — a slot about to be baked
+    again, since :func:`bake_node` adds into it (the GPU's bake clears its slots on the device, where
+    the CPU's clears them in the host array)."""
+    for c in range(n):
+        out[i, j, k, q + c] = 0.0
+
+
 @driver
 def bake_diffusion(diff, q, nch, out):
     """Adds diffusion's ``max(φ_c, 0)/4π`` to slot ``q`` of the bake ``out`` (whose nodes are the
     data samples: trilinear interpolation is linear, so reading the slot equals reading φ beside
     it); ``diff`` (nx, ny, nz, n) in :func:`diffusion_layout`'s layout."""
     m0, m1, m2 = out.shape[0], out.shape[1], out.shape[2]
-    per, nd = diffusion_layout(diff.shape[3])
     for i in prange(m0):
         for j in range(m1):
             for k in range(m2):
-                for c in range(nch):
-                    out[i, j, k, q + c] += max(diff[i, j, k, per * min(c, nd - 1)], 0.0) * INV_4PI_RC
+                fold_node(diff, q, nch, i, j, k, out)

@@ -1,6 +1,7 @@
 """CUDA drivers (docs/architecture.rst): one thread per pixel (or light-grid node), each running the same
 scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
-:func:`.pathtrace.pathtrace_pixel`, :func:`.residual.residual_pixel`, :func:`.lightvol.sweep_node`), compiled for the GPU by
+:func:`.pathtrace.pathtrace_pixel`, :func:`.residual.residual_pixel`, :func:`.lightvol.sweep_node`,
+:func:`.bake.bake_node`, :func:`.bake.fold_node`, :func:`.bake.clear_node`), compiled for the GPU by
 :func:`._jit.cuda_kernel`. A kernel only finds its thread's pixel and calls that function: the
 physics exists once, in the scalar functions.
 
@@ -12,7 +13,8 @@ registers only what its model reads. Every kernel is defined here, in a module f
 Numba's disk cache keeps it: a new process compiles nothing (docs/performance.rst, "GPU").
 
 A kernel takes its scalar's arguments minus the two thread indices, then ``row0, row1`` (the rows
-it covers).
+it covers); the bake's kernels, one thread per light-grid node on a 3-D grid, take their scalar's
+arguments minus the node's three indices.
 
 Importing this module imports ``numba.cuda``: the backend layer (:mod:`pv_ambient.backend`) does
 so only when the CUDA backend is asked for. With ``NUMBA_ENABLE_CUDASIM=1`` (set before numba is
@@ -25,13 +27,17 @@ from __future__ import annotations
 from numba import cuda
 
 from ._jit import cuda_kernel
+from .bake import bake_node, clear_node, fold_node
 from .lightvol import sweep_node
 from .pathtrace import pathtrace_pixel
 from .raycast import SPECIALISATIONS, raycast_pixel, specialisation
+from .models import AMBIENT_SCATTERING, DIFFUSION, SINGLE_SCATTERING
 from .residual import residual_pixel
 
 #: Threads per block (x: the fast index, image columns; y: rows).
 BLOCK = (16, 8)
+#: Threads per block of the bake's node kernels (x: the light grid's last index, contiguous in memory).
+BLOCK3 = (32, 4, 2)
 
 
 def raycast_kernel(model, baked, mode):
@@ -86,6 +92,48 @@ def sweep_layer_kernel(sig, B, is_point, lx, ly, lz, a, k, J, prev, out, cur, ro
     ib = row0 + ty
     if ic < cur.shape[1] and ib < row1:
         sweep_node(sig, B, is_point, lx, ly, lz, a, k, J, prev, ib, ic, out, cur)
+
+
+def bake_kernel(model):
+    """The bake kernel of ray-cast ``model`` (:data:`BAKE_KERNELS` holds them: use that): one thread
+    per light-grid node, each adding its lights' in-scattering to slot ``q``
+    (:func:`.bake.bake_node`, the CPU's :func:`.bake.bake_incident` loop body). The model is a
+    constant of the kernel, as the ray cast's: single scattering's and diffusion's bake keep no
+    ball term."""
+
+    def bake(lights, grid, ambient, w2i, i2w, lo, step, nch, q, on_samples, out):
+        k, j, i = cuda.grid(3)
+        if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
+            bake_node(model, lights, grid, ambient, w2i, i2w, lo, step, nch, q, on_samples, i, j, k, out)
+
+    return cuda_kernel(bake)
+
+
+#: The bake kernel of every model whose lights are baked (compiled at its first launch).
+BAKE_KERNELS = {m: bake_kernel(m) for m in (SINGLE_SCATTERING, AMBIENT_SCATTERING, DIFFUSION)}
+
+
+@cuda_kernel
+def fold_kernel(diff, q, nch, out):
+    """Diffusion's ``max(φ, 0)/4π`` added to slot ``q`` of the bake, one thread per node
+    (:func:`.bake.fold_node`, the CPU's :func:`.bake.bake_diffusion` loop body)."""
+    k, j, i = cuda.grid(3)
+    if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
+        fold_node(diff, q, nch, i, j, k, out)
+
+
+@cuda_kernel
+def clear_kernel(q, n, out):
+    """Channels ``q … q + n − 1`` of the bake set to 0, one thread per node (:func:`.bake.clear_node`)."""
+    k, j, i = cuda.grid(3)
+    if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
+        clear_node(q, n, i, j, k, out)
+
+
+def grid3_for(shape, block=BLOCK3):
+    """Blocks per grid covering the nodes of a light grid of ``shape`` (m0, m1, m2): x the last index."""
+    m0, m1, m2 = shape[:3]
+    return ((m2 + block[0] - 1) // block[0], (m1 + block[1] - 1) // block[1], (m0 + block[2] - 1) // block[2])
 
 
 def grid_for(width, height, block=BLOCK):

@@ -133,7 +133,7 @@ def _bake(renderer, req, model, options, inputs, records):
         inc, nch = stages.incident(MODEL_IDS[model], inputs.lights, grid, (lrec, grec, arec),
                                    (model, radius, tkey, req.propagation, ph.canonical(), dkey),
                                    inputs.taus, inputs.fronts, diffusion=inputs.diffusion if fold else None,
-                                   dgrid=inputs.dgrid)
+                                   dgrid=inputs.dgrid, backend=req.backend)
         bar.update()
     return grec._replace(inc=inc, baked=nch), MODEL_IDS["single_scattering" if fold else model]
 

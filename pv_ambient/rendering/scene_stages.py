@@ -340,19 +340,23 @@ class SceneStages:
                 del self.cache[("ball", float(radius))]
         return self.cache[key]
 
-    def incident(self, model_id, lights, grid, records, key, taus, phis=None, diffusion=None, dgrid=None):
+    def incident(self, model_id, lights, grid, records, key, taus, phis=None, diffusion=None, dgrid=None,
+                 backend="cpu"):
         """The baked in-scattered light of ``lights`` on ``grid``, ``(array, nch)``
         (:func:`pv_ambient.stages.bake.bake_incident`): ``records`` are the kernel's Lights,
         LightGrid and Ambient records, ``taus`` / ``phis`` each light's optical depth and tube front,
         ``key`` what else they depend on (model, radius, table, propagation, diffusion options;
         not the ray step: a point light's slot holds its intensity, not its clamped fall-off). A
         camera move reads it; a relight rebakes the slots of the lights that moved and copies the
-        others' from the bake it replaces."""
+        others' from the bake it replaces. On ``backend`` ``"cuda"`` the bake runs on the GPU and its
+        device copy stays in the device cache for the ray cast (``device_cache`` of
+        :func:`pv_ambient.stages.bake.bake_incident`; a bake rebaked in place keeps its device copy,
+        the lights' kept slots with it)."""
         from ..stages.bake import bake_incident, incident_slots
 
         key = ("incident", tuple(lights), grid.key()) + tuple(key)
         if key not in self.cache:
-            reuse, into = {}, None
+            reuse, into, device = {}, None, self.device_for(backend)
             kinds = [0 if isinstance(lt, PointLight) else 1 for lt in lights]
             for old in self.cache.keys("incident"):
                 if old[2:] != key[2:]:
@@ -364,11 +368,12 @@ class SceneStages:
                 if old_kinds == kinds:
                     # the same slots: rebaked in place, the lights that kept their index kept
                     # (stages.bake.bake_incident's ``into``); the cache no longer holds it, nor the GPU
+                    # unless the GPU rebakes it (its device copy is then rebaked in place too)
                     into = inc
                     reuse = {j: inc[..., old_slots[j] * nch:(old_slots[j] + 1) * nch] for j, lt in enumerate(lights)
                              if kinds[j] == 0 and lt == old_lights[j]}
                     del self.cache[old]
-                    if self._device.cache is not None:
+                    if self._device.cache is not None and device is None:
                         self._device.cache.forget(inc)
                     break
                 for j, lt in enumerate(lights):
@@ -379,7 +384,7 @@ class SceneStages:
                 self._release_sigma()
             value = self._timed("baked in-scattering", lambda: bake_incident(model_id, records, self.geometry, grid,
                                                                              taus, phis, diffusion, reuse, into=into,
-                                                                             dgrid=dgrid))
+                                                                             dgrid=dgrid, device_cache=device))
             self._replace("incident", key, value)
         return self.cache[key]
 

@@ -100,7 +100,7 @@ def table_applies(table) -> bool:
 
 
 def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=None, reuse=None,
-                  driver="rows", into=None, dgrid=None) -> tuple:
+                  driver="rows", into=None, dgrid=None, device_cache=None) -> tuple:
     """The in-scattered light of the lights per unit albedo at the nodes of ``grid``, ``(array,
     nch)``: float32 (m0, m1, m2, slots·nch), a slot per point light (times d²) and one for the
     directional lights (:func:`incident_slots`), ``nch`` from :func:`incident_channels`
@@ -120,7 +120,16 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     ``"rows"`` bakes in vectorised chunks of a row where :func:`rows_apply` holds
     (:mod:`pv_ambient._kernels.bake_rows`; ambient scattering reads D per sample, ``dgrid`` =
     :func:`ball_d`), ``"nodes"`` node by node everywhere (the rule it follows; ambient scattering
-    reads the ball grid, ``records``' Ambient ``ball``)."""
+    reads the ball grid, ``records``' Ambient ``ball``).
+
+    ``device_cache``: a :class:`pv_ambient.backend.DeviceCache` — the bake then runs on the GPU
+    (:func:`pv_ambient.backend.bake`: the node rule, one thread per node), from the optical depths
+    the cache holds, and the cache keeps the result's device copy for the ray cast; the array
+    returned is its download. Except where the CPU's choice is the row driver reading ambient
+    scattering's D per sample (``dgrid``): D in 16 bits moves the bake by up to 1e-5 of its largest
+    value from the node rule's exact lookup, beyond the GPU's tolerance of 1e-6 against the CPU
+    (docs/performance.rst, "GPU"), so that case, and a bake that does not fit in the GPU's free
+    memory, bakes on the CPU (the device copy of an array rebaked in place is then dropped)."""
     from .._kernels.bake import bake_diffusion
     from .._kernels.bake import bake_incident as bake
     from .._kernels.models import AMBIENT_SCATTERING
@@ -137,10 +146,19 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
     rows = driver == "rows" and rows_apply(model_id, records, grid, phis, dgrid)
     in_place = into is not None and into.shape == shape and into.dtype == np.float32 and into.flags.c_contiguous
     out = into if in_place else np.zeros(shape, np.float32)
-    if in_place:
-        # a slot baked again starts from 0, except a point light's slot that the row driver writes
-        # whole; a kept slot must be this array's own (a light that kept its index)
+    if in_place:  # a kept slot must be this array's own (a light that kept its index)
         reuse = {j: v for j, v in reuse.items() if np.shares_memory(v, out)}
+    if device_cache is not None and not (rows and model_id == AMBIENT_SCATTERING):
+        from ..backend import DeviceMemoryError
+
+        try:
+            bake_on_device(device_cache, model_id, records, geometry, grid, taus, phis, diffusion, reuse, in_place,
+                           nch, out)
+            return out, nch
+        except DeviceMemoryError:
+            pass  # baked on the CPU below; the ray cast raises, or falls back under backend="auto"
+    if in_place:
+        # a slot baked again starts from 0, except a point light's slot that the row driver writes whole
         for q in sorted({slots[j] for j in range(len(lrec.kind)) if j not in reuse
                          and not (rows and lrec.kind[j] == 0)} | ({nslots - 1} if diffusion is not None else set())):
             out[..., q * nch:(q + 1) * nch] = 0.0
@@ -171,4 +189,37 @@ def bake_incident(model_id, records, geometry, grid, taus, phis=None, diffusion=
              grid.lo, grid.step, nch, q, out)
     if diffusion is not None:
         bake_diffusion(diffusion, (nslots - 1) * nch, nch, out)
+    if device_cache is not None:
+        device_cache.forget(out)  # a device copy of the array rebaked here is stale
     return out, nch
+
+
+def bake_on_device(device_cache, model_id, records, geometry, grid, taus, phis, diffusion, reuse, in_place, nch,
+                   out):
+    """:func:`bake_incident` on the GPU into host array ``out`` (m0, m1, m2, slots·nch), its
+    arguments as there (``reuse`` already this array's own slots where ``in_place``): the slots of
+    the lights not in ``reuse`` (and diffusion's) cleared and baked on the device by the node rule,
+    the others kept — in the device copy of ``out`` the cache holds, or copied into ``out`` and
+    uploaded with it — then ``out`` downloaded (:func:`pv_ambient.backend.bake`). Raises
+    :class:`pv_ambient.backend.DeviceMemoryError` before any work when it does not fit."""
+    from .. import backend
+    from .._kernels.models import AMBIENT_SCATTERING
+
+    lrec, grec, arec = records
+    slots = incident_slots(lrec.kind)
+    nslots = out.shape[3] // nch
+    if arec.ball.shape[3] < 4 and model_id == AMBIENT_SCATTERING:
+        raise ValueError("the node-by-node bake of ambient scattering needs the ball grid (records' Ambient.ball)")
+    if not in_place:
+        for j, v in reuse.items():
+            out[..., slots[j] * nch:(slots[j] + 1) * nch] = v
+    baked = sorted({slots[j] for j in range(len(lrec.kind)) if j not in reuse}
+                   | ({nslots - 1} if diffusion is not None else set()))
+    parts = [(slots[j] * nch,
+              lrec._replace(kind=lrec.kind[j:j + 1].copy(), vec=lrec.vec[j:j + 1].copy(),
+                            power=lrec.power[j:j + 1].copy()),
+              taus[j], None if phis is None else phis[j]) for j in range(len(lrec.kind)) if j not in reuse]
+    fold = None if diffusion is None else (diffusion, (nslots - 1) * nch)
+    backend.bake(device_cache, model_id, parts, [(q * nch, nch) for q in baked], fold, (grec, arec),
+                 geometry.world_to_index, geometry.index_to_world, grid.lo, grid.step, nch, out,
+                 fresh=not in_place and not reuse)

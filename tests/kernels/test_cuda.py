@@ -98,14 +98,16 @@ def test_physics_exists_once():
                and any(isinstance(c, ast.Attribute) and c.attr == "grid" for c in ast.walk(n))
                and not any(isinstance(c, ast.FunctionDef) for c in ast.walk(n) if c is not n)}
     scalars = {"raycast": "raycast_pixel", "pathtrace_kernel": "pathtrace_pixel", "residual_kernel": "residual_pixel",
-               "sweep_layer_kernel": "sweep_node"}
+               "sweep_layer_kernel": "sweep_node", "bake": "bake_node", "fold_kernel": "fold_node",
+               "clear_kernel": "clear_node"}
     assert set(kernels) == set(scalars)
     for name, node in kernels.items():
         called = [c.func.id if isinstance(c.func, ast.Name) else c.func.attr for c in ast.walk(node)
                   if isinstance(c, ast.Call)]
         assert sorted(called) == sorted(["grid", scalars[name]]), (name, called)
-        # no arithmetic but the thread's row offset
-        assert sum(isinstance(b, ast.BinOp) for b in ast.walk(node)) == 1, name
+        # no arithmetic but the thread's row offset (none in the bake's node kernels: a 3-D grid)
+        rows = 0 if scalars[name] in ("bake_node", "fold_node", "clear_node") else 1
+        assert sum(isinstance(b, ast.BinOp) for b in ast.walk(node)) == rows, name
 
     from pv_ambient._kernels import lightvol, pathtrace, raycast, residual
 
