@@ -426,6 +426,26 @@ def bake(cache: DeviceCache, model_id, parts, clear, fold, records, w2i, i2w, lo
     cache.put(out, d_out)
 
 
+def medium_grid(cache: DeviceCache, kind, args, out):
+    """A grid of the medium on the GPU: kernel ``kind`` of :data:`pv_ambient._kernels.cuda.MEDIUM_KERNELS`
+    (σt on the data samples or the light-grid nodes, a majorant grid) on ``args`` — its arguments
+    before the output, arrays found in or uploaded to the cache (the field and the table the ray
+    cast reads too) — one thread per entry of host array ``out``. ``out`` is filled by a download
+    and the cache then holds its device copy, so the stages and the ray cast that read it upload
+    nothing. Raises :class:`DeviceMemoryError` before any upload or launch when it does not fit."""
+    from numba import cuda
+
+    from ._kernels.cuda import BLOCK3, MEDIUM_KERNELS, grid3_for
+
+    check_fits(cache, [a for a in args if isinstance(a, np.ndarray)] + [out])
+    dev = [cache.get(a) if isinstance(a, np.ndarray) else a for a in args]
+    d_out = cuda.device_array(out.shape, out.dtype)
+    with _launch():
+        MEDIUM_KERNELS[kind][grid3_for(out.shape), BLOCK3](*dev, d_out)
+    d_out.copy_to_host(out)
+    cache.put(out, d_out)
+
+
 def tiles(n, count):
     """``count`` (at most ``n``) row ranges [r0, r1) covering ``n`` rows."""
     edges = np.linspace(0, n, min(count, n) + 1).astype(int)

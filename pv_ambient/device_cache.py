@@ -116,7 +116,13 @@ class DeviceCache:
 
     def put(self, arr, dev):
         """Register ``dev`` as the device copy of host array ``arr`` (computed on the GPU); the
-        records that held another copy of it are mapped again at their next use."""
+        records that held another copy of it are mapped again at their next use. An array of at
+        most :data:`SMALL_BYTES` (a small grid's majorant) is registered by its contents too, as
+        :meth:`get` finds it."""
+        if arr.nbytes <= SMALL_BYTES:
+            self._small[_small_key(arr)] = dev
+            if len(self._small) > SMALL_KEEP:
+                del self._small[next(iter(self._small))]
         self._items[id(arr)] = (arr, dev, self._launch)
         self._forget_records({id(arr)})  # after the new copy is in: the memo then drops the old one
 

@@ -1,7 +1,9 @@
 """CUDA drivers (docs/architecture.rst): one thread per pixel (or light-grid node), each running the same
 scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
 :func:`.pathtrace.pathtrace_pixel`, :func:`.residual.residual_pixel`, :func:`.lightvol.sweep_node`,
-:func:`.bake.bake_node`, :func:`.bake.fold_node`, :func:`.bake.clear_node`), compiled for the GPU by
+:func:`.bake.bake_node`, :func:`.bake.fold_node`, :func:`.bake.clear_node`, and the medium's grids:
+:func:`.medium.sigma_sample_node`, :func:`.lightvol.sigma_node`, :func:`.majorant.majorant_block`,
+:func:`.majorant.cast_majorant_block`), compiled for the GPU by
 :func:`._jit.cuda_kernel`. A kernel only finds its thread's pixel and calls that function: the
 physics exists once, in the scalar functions.
 
@@ -28,7 +30,9 @@ from numba import cuda
 
 from ._jit import cuda_kernel
 from .bake import bake_node, clear_node, fold_node
-from .lightvol import sweep_node
+from .lightvol import sigma_node, sweep_node
+from .majorant import cast_majorant_block, majorant_block
+from .medium import sigma_sample_node
 from .pathtrace import pathtrace_pixel
 from .raycast import SPECIALISATIONS, raycast_pixel, specialisation
 from .models import AMBIENT_SCATTERING, DIFFUSION, SINGLE_SCATTERING
@@ -128,6 +132,48 @@ def clear_kernel(q, n, out):
     k, j, i = cuda.grid(3)
     if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
         clear_node(q, n, i, j, k, out)
+
+
+@cuda_kernel
+def sigma_samples_kernel(field, table, lut_lo, lut_inv, out):
+    """σt of a LUT-mode medium at every data sample, one thread per sample (:func:`.medium.sigma_sample_node`,
+    the CPU's :func:`.medium.classify_columns` loop body)."""
+    k, j, i = cuda.grid(3)
+    if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
+        sigma_sample_node(field, table, lut_lo, lut_inv, i, j, k, out)
+
+
+@cuda_kernel
+def sigma_nodes_kernel(mode, field, table, lut_lo, lut_inv, lo, step, out):
+    """σt at every light-grid node, one thread per node (:func:`.lightvol.sigma_node`, the CPU's
+    :func:`.lightvol.sample_sigma_grid` loop body)."""
+    k, j, i = cuda.grid(3)
+    if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
+        sigma_node(mode, field, table, lut_lo, lut_inv, lo, step, i, j, k, out)
+
+
+@cuda_kernel
+def majorant_kernel(mode, field, table, lut_lo, lut_inv, block, out):
+    """The path tracer's majorant grid, one thread per block (:func:`.majorant.majorant_block`, the
+    CPU's :func:`.majorant.build_majorant` loop body)."""
+    c, b, a = cuda.grid(3)
+    if a < out.shape[0] and b < out.shape[1] and c < out.shape[2]:
+        out[a, b, c] = majorant_block(mode, field, table, lut_lo, lut_inv, block, a, b, c)
+
+
+@cuda_kernel
+def cast_majorant_kernel(mode, field, table, lut_lo, lut_inv, block, sigma_min, out):
+    """The ray cast's majorant grid, one thread per block (:func:`.majorant.cast_majorant_block`, the
+    CPU's :func:`.majorant.build_cast_majorant` loop body)."""
+    c, b, a = cuda.grid(3)
+    if a < out.shape[0] and b < out.shape[1] and c < out.shape[2]:
+        out[a, b, c] = cast_majorant_block(mode, field, table, lut_lo, lut_inv, block, sigma_min, a, b, c)
+
+
+#: The kernels of the medium's per-scene grids by name (:func:`pv_ambient.backend.medium_grid`), each
+#: taking the grid's arguments then its output, one thread per output entry.
+MEDIUM_KERNELS = {"sigma_samples": sigma_samples_kernel, "sigma_nodes": sigma_nodes_kernel,
+                  "majorant": majorant_kernel, "cast_majorant": cast_majorant_kernel}
 
 
 def grid3_for(shape, block=BLOCK3):

@@ -35,16 +35,22 @@ from .preint import f_lookup
 TIE = 1e-9
 
 
+@scalar(inline=True)
+def sigma_node(mode, field, table, lut_lo, lut_inv, lo, step, i, j, k, out):
+    """σt at light-grid node (i, j, k) (data index lo + (i, j, k)·step) written to ``out[i, j, k]``:
+    the loop body of :func:`sample_sigma_grid` and of the GPU's kernel (:mod:`.cuda`)."""
+    out[i, j, k] = sigma_at(mode, field, table, lut_lo, lut_inv, lo[0] + i * step[0], lo[1] + j * step[1],
+                            lo[2] + k * step[2])
+
+
 @driver
 def sample_sigma_grid(mode, field, table, lut_lo, lut_inv, lo, step, out):
     """σt at every light-grid node (node k ↦ data index lo + k·step)."""
     m0, m1, m2 = out.shape
     for i in prange(m0):  # the last index innermost: C-ordered arrays are read and written in order
-        x = lo[0] + i * step[0]
         for j in range(m1):
-            y = lo[1] + j * step[1]
             for k in range(m2):
-                out[i, j, k] = sigma_at(mode, field, table, lut_lo, lut_inv, x, y, lo[2] + k * step[2])
+                sigma_node(mode, field, table, lut_lo, lut_inv, lo, step, i, j, k, out)
 
 
 @scalar(force_inline=True)

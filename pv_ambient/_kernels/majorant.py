@@ -44,24 +44,49 @@ def block_range(field, a, b, c, block):
     return smin, smax
 
 
+@scalar(inline=True)
+def majorant_block(mode, field, table, lut_lo, lut_inv, block, a, b, c):
+    """The bound of :func:`build_majorant` on block (a, b, c): the largest σt sample (GRID), or
+    the table's largest σt over every entry the block's least and greatest scalar touch (LUT)."""
+    smin, smax = block_range(field, a, b, c, block)
+    if mode == MODE_GRID:
+        return np.float64(smax)
+    n = table.shape[0]
+    k0, _, _ = lut_coords(smin, lut_lo, lut_inv, n)
+    _, k1, _ = lut_coords(smax, lut_lo, lut_inv, n)
+    m = 0.0
+    for k in range(k0, k1 + 1):
+        if table[k, 0] > m:
+            m = table[k, 0]
+    return m
+
+
 @driver
 def build_majorant(mode, field, table, lut_lo, lut_inv, block, out):
+    """:func:`majorant_block` of every block (its loop body, as the GPU's kernel's, :mod:`.cuda`)."""
     mx, my, mz = out.shape
-    n = table.shape[0]
     for c in prange(mz):
         for b in range(my):
             for a in range(mx):
-                smin, smax = block_range(field, a, b, c, block)
-                if mode == MODE_GRID:
-                    out[a, b, c] = smax
-                else:
-                    k0, _, _ = lut_coords(smin, lut_lo, lut_inv, n)
-                    _, k1, _ = lut_coords(smax, lut_lo, lut_inv, n)
-                    m = 0.0
-                    for k in range(k0, k1 + 1):
-                        if table[k, 0] > m:
-                            m = table[k, 0]
-                    out[a, b, c] = m
+                out[a, b, c] = majorant_block(mode, field, table, lut_lo, lut_inv, block, a, b, c)
+
+
+@scalar(inline=True)
+def cast_majorant_block(mode, field, table, lut_lo, lut_inv, block, sigma_min, a, b, c):
+    """The value of :func:`build_cast_majorant` on block (a, b, c)."""
+    smin, smax = block_range(field, a, b, c, block)
+    if mode == MODE_GRID:
+        m = np.float64(smax)
+    else:
+        n = table.shape[0]
+        i0, i1, f0 = lut_coords(smin, lut_lo, lut_inv, n)
+        j0, j1, f1 = lut_coords(smax, lut_lo, lut_inv, n)
+        m = max(table[i0, 0] + f0 * (table[i1, 0] - table[i0, 0]),
+                table[j0, 0] + f1 * (table[j1, 0] - table[j0, 0]))
+        for k in range(i0 + 1, j0 + 1):
+            if table[k, 0] > m:
+                m = table[k, 0]
+    return m if m > sigma_min else 0.0
 
 
 @driver
@@ -73,24 +98,13 @@ def build_cast_majorant(mode, field, table, lut_lo, lut_inv, block, sigma_min, o
     between them — where :func:`build_majorant`
     takes every entry the two touch: a block of scalars that are zero but for denormal rounding
     is empty here and not there. The path tracer's delta tracking keeps :func:`build_majorant`
-    (it needs a bound, not the ray cast's skip)."""
+    (it needs a bound, not the ray cast's skip). Each block is :func:`cast_majorant_block` (the
+    GPU's kernel's loop body too, :mod:`.cuda`)."""
     mx, my, mz = out.shape
-    n = table.shape[0]
     for c in prange(mz):
         for b in range(my):
             for a in range(mx):
-                smin, smax = block_range(field, a, b, c, block)
-                if mode == MODE_GRID:
-                    m = np.float64(smax)
-                else:
-                    i0, i1, f0 = lut_coords(smin, lut_lo, lut_inv, n)
-                    j0, j1, f1 = lut_coords(smax, lut_lo, lut_inv, n)
-                    m = max(table[i0, 0] + f0 * (table[i1, 0] - table[i0, 0]),
-                            table[j0, 0] + f1 * (table[j1, 0] - table[j0, 0]))
-                    for k in range(i0 + 1, j0 + 1):
-                        if table[k, 0] > m:
-                            m = table[k, 0]
-                out[a, b, c] = m if m > sigma_min else 0.0
+                out[a, b, c] = cast_majorant_block(mode, field, table, lut_lo, lut_inv, block, sigma_min, a, b, c)
 
 
 @scalar(inline=True)

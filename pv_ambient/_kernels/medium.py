@@ -234,6 +234,22 @@ def table_entry(v, lut_lo, lut_inv, n):
     return k0, x - k0
 
 
+@scalar(inline=True)
+def table_column(table, k0, f, col):
+    """Column ``col`` of ``table`` at entry ``k0`` and fraction ``f`` (:func:`table_entry`), in
+    double precision: the grid drivers' interpolation between two entries."""
+    return (1.0 - f) * table[k0, col] + f * table[k0 + 1, col]
+
+
+@scalar(inline=True)
+def sigma_sample_node(field, table, lut_lo, lut_inv, i, j, k, out):
+    """σt of a LUT-mode medium at data sample (i, j, k) written to ``out[i, j, k]`` (float32): the
+    σt column of :func:`classify_columns` at one sample, the loop body of the GPU's kernel
+    (:mod:`.cuda`)."""
+    k0, f = table_entry(field[i, j, k], lut_lo, lut_inv, table.shape[0])
+    out[i, j, k] = table_column(table, k0, f, 0)
+
+
 @driver
 def classify_columns(field, table, lut_lo, lut_inv, col, out):
     """Columns ``col … col + ncomp − 1`` of ``table`` at every sample of the scalar ``field``
@@ -247,7 +263,7 @@ def classify_columns(field, table, lut_lo, lut_inv, col, out):
             for k in range(nz):
                 k0, f = table_entry(field[i, j, k], lut_lo, lut_inv, n)
                 for c in range(ncomp):
-                    out[i, j, k, c] = (1.0 - f) * table[k0, col + c] + f * table[k0 + 1, col + c]
+                    out[i, j, k, c] = table_column(table, k0, f, col + c)
 
 
 @driver

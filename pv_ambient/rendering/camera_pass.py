@@ -166,7 +166,7 @@ def raycast_records(renderer, req, model, options, inputs):
             K.view_of(req.camera, req.window_size, renderer.geometry),
             K.March(req.step, req.jitter, req.seed, req.early_termination, req.background, req.t_end,
                     stages.step_opacity(req.step)),
-            K.medium_of(renderer.optics, stages.cast_majorant(), MAJORANT_BLOCK),
+            K.medium_of(renderer.optics, stages.cast_majorant(backend=req.backend), MAJORANT_BLOCK),
             lrec, grec, arec,
             K.Diffusion(inputs.diffusion, float(ph.mean_cosine)))
     return args, bake

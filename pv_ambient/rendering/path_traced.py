@@ -26,8 +26,8 @@ def path_trace(renderer, camera=None, window_size=None, *, backend="cpu", block=
     check_image_memory(size, "path_traced")
     renderer.place_lights(cam)
     block = check_int(block, "majorant_block", lo=1)
-    out = trace(renderer.geometry, renderer.optics, renderer.stages.majorant(block), renderer.lights, cam, size,
-                block=block, samples_per_pixel=samples_per_pixel, target_error=target_error, backend=backend,
+    out = trace(renderer.geometry, renderer.optics, renderer.stages.majorant(block, backend), renderer.lights, cam,
+                size, block=block, samples_per_pixel=samples_per_pixel, target_error=target_error, backend=backend,
                 time_limit=time_limit, device_cache=renderer.stages.device_for(backend), **options)
     reached, target = out.metadata.get("relative_error"), out.metadata.get("target_error")
     if target is not None and time_limit is None and not reached <= target:

@@ -115,7 +115,7 @@ def render_progressive(renderer, req, options) -> RenderResult:
     target = options.get("target_error")
 
     def trace(n, target_error, first_sample=0):
-        return path_trace(renderer.geometry, renderer.optics, renderer.stages.majorant(MAJORANT_BLOCK),
+        return path_trace(renderer.geometry, renderer.optics, renderer.stages.majorant(MAJORANT_BLOCK, req.backend),
                           renderer.lights, req.camera, req.window_size, phase=req.phase, samples_per_pixel=n,
                           target_error=target_error, max_depth=options.get("max_depth"), seed=req.seed,
                           background=req.background, progress_bar=req.progress_bar is True,

@@ -119,18 +119,20 @@ class SceneStages:
         return value
 
     # -- the medium --------------------------------------------------------------------------
-    def majorant(self, block=MAJORANT_BLOCK):
-        """Upper bound of σt over each block of (``block``)³ samples (cached)."""
+    def majorant(self, block=MAJORANT_BLOCK, backend="cpu"):
+        """Upper bound of σt over each block of (``block``)³ samples (cached; computed on ``backend``)."""
         from ..stages.medium import majorant_grid
 
-        return self.cache.get(("majorant", block), lambda: majorant_grid(self.optics, block))
+        return self.cache.get(("majorant", block), lambda: majorant_grid(self.optics, block, self.device_for(backend)))
 
-    def cast_majorant(self, block=MAJORANT_BLOCK):
+    def cast_majorant(self, block=MAJORANT_BLOCK, backend="cpu"):
         """The ray cast's majorant grid in (``block``)³ samples (cached;
-        :func:`pv_ambient.stages.medium.cast_majorant`): its empty blocks are those a ray skips."""
+        :func:`pv_ambient.stages.medium.cast_majorant`, computed on ``backend``): its empty blocks are
+        those a ray skips."""
         from ..stages.medium import cast_majorant
 
-        return self.cache.get(("cast_majorant", block), lambda: cast_majorant(self.optics, block))
+        return self.cache.get(("cast_majorant", block), lambda: cast_majorant(self.optics, block,
+                                                                              self.device_for(backend)))
 
     def step_opacity(self, step):
         """The medium's step-corrected table for world step ``step`` (:func:`pv_ambient.stages.medium.step_opacity`),
@@ -176,19 +178,23 @@ class SceneStages:
         f = light_resolution_for(self.optics, self.geometry) if light_resolution is None else light_resolution
         return self.cache.get(("light_grid", float(f)), lambda: make_light_grid(self.geometry, f))
 
-    def sigma_samples(self):
+    def sigma_samples(self, backend="cpu"):
         """σt at the data samples, float32 (cached; the field itself for a physical transfer
-        function): the ball grid's input, and the light grid's σt wherever its nodes are the samples."""
-        return self.cache.get(("sigma_l", "samples"), self.optics.sigma_grid)
+        function; :func:`pv_ambient.stages.medium.sigma_samples` on ``backend``): the ball grid's
+        input, and the light grid's σt wherever its nodes are the samples."""
+        from ..stages.medium import sigma_samples
 
-    def sigma_on_light_grid(self, grid):
-        """σt at the nodes of ``grid`` (cached): :meth:`sigma_samples` when the nodes are the data
-        samples (the same values: the interpolation at a sample is the sample), else sampled."""
+        return self.cache.get(("sigma_l", "samples"), lambda: sigma_samples(self.optics, self.device_for(backend)))
+
+    def sigma_on_light_grid(self, grid, backend="cpu"):
+        """σt at the nodes of ``grid`` (cached; on ``backend``): :meth:`sigma_samples` when the nodes
+        are the data samples (the same values: the interpolation at a sample is the sample), else sampled."""
         from ..stages.propagation import sigma_on_grid
 
         if grid.on_samples(self.optics.field.shape):
-            return self.sigma_samples()
-        return self.cache.get(("sigma_l", grid.key()), lambda: sigma_on_grid(self.optics, grid))
+            return self.sigma_samples(backend)
+        return self.cache.get(("sigma_l", grid.key()), lambda: sigma_on_grid(self.optics, grid,
+                                                                             self.device_for(backend)))
 
     def optical_depth(self, light, grid, backend="cpu"):
         """τ from ``light`` on ``grid`` (cached per light: a relight recomputes only that light),
@@ -199,8 +205,8 @@ class SceneStages:
         if key not in self.cache:
             out = self._take_spare(grid.shape)
             self.cache[key] = self._timed(f"light volume {light}", lambda: optical_depth(
-                self.sigma_on_light_grid(grid), grid, self.geometry, light, device_cache=self.device_for(backend),
-                out=out))
+                self.sigma_on_light_grid(grid, backend), grid, self.geometry, light,
+                device_cache=self.device_for(backend), out=out))
         return self.cache[key]
 
     def _take_spare(self, shape):
@@ -392,8 +398,11 @@ class SceneStages:
         """Drop σt (the data samples' and the light grids') from the cache before a new bake array is
         made: the bake reads the lights' optical depths, not σt, and a new bake (a first frame) is
         where a render's memory peaks. The next sweep classifies again (0.1 s at 256³); a relight
-        rebakes in place and keeps it (docs/performance.rst, "Memory")."""
+        rebakes in place and keeps it (docs/performance.rst, "Memory"). Their GPU copies go too, but
+        the field's (a physical transfer function's σt, which the ray cast reads)."""
         for key in self.cache.keys("sigma_l"):
+            if self._device.cache is not None and self.cache[key] is not self.optics.field:
+                self._device.cache.forget(self.cache[key])
             del self.cache[key]
 
     def diffusion(self, lights, grid, phase, flux_limited=False, progress_bar=False, backend="cpu",

@@ -7,13 +7,51 @@ from __future__ import annotations
 import numpy as np
 
 
-def majorant_grid(optics, block) -> np.ndarray:
-    """Upper bound of σt over each block of ``block``³ samples: float32, one value per block."""
+def on_device(device_cache, kind, args, out) -> bool:
+    """Fill host array ``out`` on the GPU with the medium's kernel ``kind``
+    (:func:`pv_ambient.backend.medium_grid`: the same scalar function per entry as the CPU's driver,
+    the device copy kept in ``device_cache`` for the stages and the ray cast): True when it ran,
+    False without a device cache or when the grid does not fit in the GPU's free memory (the
+    caller then computes it on the CPU; the ray cast raises, or falls back under backend="auto")."""
+    if device_cache is None:
+        return False
+    from ..backend import DeviceMemoryError, medium_grid
+
+    try:
+        medium_grid(device_cache, kind, args, out)
+    except DeviceMemoryError:
+        return False
+    return True
+
+
+def sigma_samples(optics, device_cache=None) -> np.ndarray:
+    """σt at the data samples, float32 (:meth:`pv_ambient.inputs.transfer.Optics.sigma_grid`): the
+    field itself in mode GRID (nothing to compute: the GPU uploads it once, for every stage and the
+    ray cast); in mode LUT the table looked up per sample, on the GPU with a ``device_cache``
+    (:func:`on_device`)."""
+    from .._kernels.medium import MODE_LUT
+
+    if optics.mode == MODE_LUT and device_cache is not None:
+        out = np.empty(optics.field.shape, np.float32)
+        if on_device(device_cache, "sigma_samples", (np.ascontiguousarray(optics.field), optics.table,
+                                                     float(optics.lut_lo), float(optics.lut_inv)), out):
+            return out
+    return optics.sigma_grid()
+
+
+def _majorant_shape(optics, block):
+    return tuple(max(1, -(-(n - 1) // block)) for n in optics.field.shape)
+
+
+def majorant_grid(optics, block, device_cache=None) -> np.ndarray:
+    """Upper bound of σt over each block of ``block``³ samples: float32, one value per block (on the
+    GPU with a ``device_cache``, :func:`on_device`)."""
     from .._kernels.majorant import build_majorant
 
-    shape = tuple(max(1, -(-(n - 1) // block)) for n in optics.field.shape)
-    maj = np.zeros(shape, np.float32)
-    build_majorant(optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, block, maj)
+    maj = np.zeros(_majorant_shape(optics, block), np.float32)
+    args = (optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, block)
+    if not on_device(device_cache, "majorant", args, maj):
+        build_majorant(*args, maj)
     return maj
 
 
@@ -24,19 +62,23 @@ def majorant_grid(optics, block) -> np.ndarray:
 EMPTY_RATIO = 1e-12
 
 
-def cast_majorant(optics, block) -> np.ndarray:
+def cast_majorant(optics, block, device_cache=None) -> np.ndarray:
     """The ray cast's majorant grid in ``block``³ samples (:func:`pv_ambient._kernels.majorant.build_cast_majorant`):
     the largest σt a sample of each block can take, 0 where that is at most :data:`EMPTY_RATIO` of
-    the medium's largest (docs/performance.rst, "Empty space")."""
+    the medium's largest (docs/performance.rst, "Empty space"). On the GPU with a ``device_cache``
+    (:func:`on_device`) but for the medium's largest σt, a reduction kept on the host: in mode LUT
+    it is over the table's few hundred entries, and in mode GRID over the field that the CPU holds
+    anyway (one pass of NumPy's max, where a device reduction would need a kernel of its own)."""
     from .._kernels.majorant import build_cast_majorant
     from .._kernels.medium import MODE_LUT
 
     sigma = optics.table[:, 0] if optics.mode == MODE_LUT else optics.field
     top = float(np.max(sigma)) if np.size(sigma) else 0.0
-    shape = tuple(max(1, -(-(n - 1) // block)) for n in optics.field.shape)
-    maj = np.zeros(shape, np.float32)
-    build_cast_majorant(optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, block,
-                        EMPTY_RATIO * top if np.isfinite(top) else 0.0, maj)
+    maj = np.zeros(_majorant_shape(optics, block), np.float32)
+    args = (optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, block,
+            EMPTY_RATIO * top if np.isfinite(top) else 0.0)
+    if not on_device(device_cache, "cast_majorant", args, maj):
+        build_cast_majorant(*args, maj)
     return maj
 
 

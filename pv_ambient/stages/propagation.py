@@ -82,12 +82,16 @@ def make_light_grid(geometry, factor) -> LightGrid:
     return LightGrid(shape=shape, lo=geometry.box_lo.copy(), step=step, inv_step=inv, B=B, factor=factor)
 
 
-def sigma_on_grid(optics, grid: LightGrid) -> np.ndarray:
-    """σt at every light-grid node (float32)."""
+def sigma_on_grid(optics, grid: LightGrid, device_cache=None) -> np.ndarray:
+    """σt at every light-grid node (float32); on the GPU with a ``device_cache``
+    (:func:`pv_ambient.stages.medium.on_device`, which keeps the device copy the sweeps read)."""
     from .._kernels.lightvol import sample_sigma_grid
+    from .medium import on_device
 
     out = np.zeros(grid.shape, np.float32)
-    sample_sigma_grid(optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, grid.lo, grid.step, out)
+    args = (optics.mode, optics.field, optics.table, optics.lut_lo, optics.lut_inv, grid.lo, grid.step)
+    if not on_device(device_cache, "sigma_nodes", args, out):
+        sample_sigma_grid(*args, out)
     return out
 
 

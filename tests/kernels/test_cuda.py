@@ -64,8 +64,10 @@ def test_camera_move_host_work(sim):
     assert move["uploads"] == 1  # the camera's 16 parameters
     assert move["downloads"] == 1 and move["mem_queries"] == 0 and move["blas"] == 0
     assert move["rel"] <= REL_TOL
-    first = out["first_frame"]  # a new scene: uploads, after asking whether they fit; stages on the CPU
-    assert first["mem_queries"] == 1 and first["uploads"] > 1 and first["blas"] == 1 and first["downloads"] == 1
+    # a new scene: uploads, after asking whether they fit; the ray cast's majorant grid made on the
+    # device (its own fit check, and its host copy downloaded: tests/kernels/test_cuda_medium.py)
+    first = out["first_frame"]
+    assert first["mem_queries"] == 2 and first["uploads"] > 1 and first["blas"] == 1 and first["downloads"] == 2
     assert "Medium" in first["mapped"]
 
 
@@ -99,22 +101,30 @@ def test_physics_exists_once():
                and not any(isinstance(c, ast.FunctionDef) for c in ast.walk(n) if c is not n)}
     scalars = {"raycast": "raycast_pixel", "pathtrace_kernel": "pathtrace_pixel", "residual_kernel": "residual_pixel",
                "sweep_layer_kernel": "sweep_node", "bake": "bake_node", "fold_kernel": "fold_node",
-               "clear_kernel": "clear_node"}
+               "clear_kernel": "clear_node", "sigma_samples_kernel": "sigma_sample_node",
+               "sigma_nodes_kernel": "sigma_node", "majorant_kernel": "majorant_block",
+               "cast_majorant_kernel": "cast_majorant_block"}
     assert set(kernels) == set(scalars)
     for name, node in kernels.items():
         called = [c.func.id if isinstance(c.func, ast.Name) else c.func.attr for c in ast.walk(node)
                   if isinstance(c, ast.Call)]
         assert sorted(called) == sorted(["grid", scalars[name]]), (name, called)
         # no arithmetic but the thread's row offset (none in the bake's node kernels: a 3-D grid)
-        rows = 0 if scalars[name] in ("bake_node", "fold_node", "clear_node") else 1
+        rows = 0 if scalars[name] not in ("raycast_pixel", "pathtrace_pixel", "residual_pixel", "sweep_node") else 1
         assert sum(isinstance(b, ast.BinOp) for b in ast.walk(node)) == rows, name
 
-    from pv_ambient._kernels import lightvol, pathtrace, raycast, residual
+    from pv_ambient._kernels import lightvol, majorant, medium, pathtrace, raycast, residual
 
     assert "raycast_pixel(" in inspect.getsource(raycast.raycast_driver)
     assert "pathtrace_pixel(" in inspect.getsource(pathtrace.pathtrace_image.py_func)
     assert "sweep_node(" in inspect.getsource(lightvol.sweep_tau.py_func)
     assert "residual_pixel(" in inspect.getsource(residual.residual_image.py_func)
+    # the medium's grids (tests/kernels/test_cuda_medium.py): the CPU drivers' loop bodies
+    assert "sigma_node(" in inspect.getsource(lightvol.sample_sigma_grid.py_func)
+    assert "table_column(" in inspect.getsource(medium.classify_columns.py_func)
+    assert "table_column(" in inspect.getsource(medium.sigma_sample_node.py_func)
+    assert "majorant_block(" in inspect.getsource(majorant.build_majorant.py_func)
+    assert "cast_majorant_block(" in inspect.getsource(majorant.build_cast_majorant.py_func)
     # the scene travels in the records of _kernels/records.py, not in ~40 positional arguments
     for fn in (raycast.raycast_pixel, pathtrace.pathtrace_pixel):  # besides a specialisation's constants
         params = [p for p in inspect.signature(fn.py_func).parameters if p not in ("model", "baked", "mode")]
