@@ -4,7 +4,7 @@ scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
 :func:`.bake.bake_node`, :func:`.bake.fold_node`, :func:`.bake.clear_node`, and the medium's grids:
 :func:`.medium.sigma_sample_node`, :func:`.lightvol.sigma_node`, :func:`.majorant.majorant_block`,
 :func:`.majorant.cast_majorant_block`; the ball grid's :func:`.medium.scattering_sample`,
-:func:`.sat.box_mean_line`, :func:`.sat.ball_albedo_value`), compiled for the GPU by
+:func:`.sat.box_mean_line`, :func:`.sat.ball_channel_node`), compiled for the GPU by
 :func:`._jit.cuda_kernel`. A kernel only finds its thread's pixel and calls that function: the
 physics exists once, in the scalar functions.
 
@@ -38,7 +38,7 @@ from .pathtrace import pathtrace_pixel
 from .raycast import SPECIALISATIONS, raycast_pixel, specialisation
 from .models import AMBIENT_SCATTERING, DIFFUSION, SINGLE_SCATTERING
 from .residual import residual_pixel
-from .sat import ball_albedo_value, box_mean_line
+from .sat import ball_channel_node, box_mean_line
 
 #: Threads per block (x: the fast index, image columns; y: rows).
 BLOCK = (16, 8)
@@ -202,14 +202,11 @@ def box_mean_kernel(src, dst, axis, i0, f0, i1, f1, inv_len):
 @cuda_kernel
 def ball_channel_kernel(src, c, ball):
     """Channel ``c`` of the (nx, ny, nz, 4) ball grid from the box mean ``src``, one thread per
-    sample: σ̄ itself for ``c = 0``, else the ball's mean albedo from the mean scattering ``src`` and
-    channel 0's σ̄ (:func:`.sat.ball_albedo_value`, the CPU's :func:`.sat.ball_albedo_into`)."""
+    sample (:func:`.sat.ball_channel_node`: σ̄ itself for ``c = 0``, else the ball's mean albedo, the
+    CPU's :func:`.sat.ball_albedo_into`)."""
     k, j, i = cuda.grid(3)
     if i < ball.shape[0] and j < ball.shape[1] and k < ball.shape[2]:
-        if c == 0:
-            ball[i, j, k, 0] = src[i, j, k]
-        else:
-            ball[i, j, k, c] = ball_albedo_value(ball[i, j, k, 0], src[i, j, k])
+        ball_channel_node(src, c, ball, i, j, k)
 
 
 def grid3_for(shape, block=BLOCK3):

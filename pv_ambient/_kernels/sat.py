@@ -276,6 +276,18 @@ def ball_albedo_value(s, m):
     return min(max(v, 0.0), 1.0)
 
 
+@scalar(inline=True)
+def ball_channel_node(src, c, ball, i, j, k):
+    """Channel ``c`` of the (nx, ny, nz, 4) ball grid at sample (i, j, k) from the box mean ``src``:
+    σ̄ itself for ``c = 0``, else the ball's mean albedo (:func:`ball_albedo_value`) from the mean
+    scattering ``src`` and channel 0's σ̄ — what :func:`pv_ambient.stages.ball.ball_grid` writes on
+    the CPU (:func:`ball_albedo_into`), the loop body of the GPU's kernel."""
+    if c == 0:
+        ball[i, j, k, 0] = src[i, j, k]
+    else:
+        ball[i, j, k, c] = ball_albedo_value(ball[i, j, k, 0], src[i, j, k])
+
+
 @driver
 def box_mean_plane(src, dst, axis, i0, f0, i1, f1, inv_len):
     """One axis of a separable box mean (:func:`pv_ambient.stages.sat.box_mean_separable`) along
