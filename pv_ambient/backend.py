@@ -277,7 +277,7 @@ def check_fits(cache: DeviceCache, arrays, extra_bytes=0):
 
 
 @contextlib.contextmanager
-def _launch():
+def launch_context():
     """Around kernel launches: wait for the GPU at the end; in the simulator, which runs the uint64
     hash in numpy scalars, silence their (intended) wrap-around warnings."""
     from numba import cuda
@@ -305,7 +305,7 @@ def raycast(cache: DeviceCache, args, row0, row1, rad, alpha):
     kernel = raycast_kernel_for(args[0], args[5].baked, args[3].mode)  # the model's own (its id compiled in)
     dev_args = cache.args(args[1:], extra_bytes=cache.output_bytes(h, w))
     flat, d_rad, d_alpha = cache.output(h, w)
-    with _launch():
+    with launch_context():
         launch(kernel, grid_for(w, row1 - row0), BLOCK, (*dev_args, d_rad, d_alpha, row0, row1), cache.launch_memo)
     host = host_flat(rad, alpha) if (row0, row1) == (0, h) else None
     if host is not None:
@@ -339,7 +339,7 @@ def pathtrace(cache: DeviceCache, args, s0, s1, sums: PathSums):
 
     h, w = sums.sum_hit.shape
     kernel = pathtrace_kernel if len(args) == 4 else residual_kernel
-    with _launch():
+    with launch_context():
         kernel[grid_for(w, h), BLOCK](*cache.args(args), s0, s1, sums.sum_rad, sums.sum_sq,
                                                 sums.sum_hit, 0, h)
     cache.tick()
@@ -358,7 +358,7 @@ def sweep(cache: DeviceCache, sig_l, B, is_point, lx, ly, lz, sweeps, jump, out)
     d_B = cache.get(B)
     d_out = cuda.to_device(out)
     shape = sig_l.shape
-    with _launch():
+    with launch_context():
         for a, s in sweeps:
             nb, nc = [shape[i] for i in range(3) if i != a]
             d_hist = cuda.to_device(np.zeros((jump + 1, nb, nc)))
@@ -412,7 +412,7 @@ def bake(cache: DeviceCache, model_id, parts, clear, fold, records, w2i, i2w, lo
     kernel = BAKE_KERNELS[model_id]
     on_samples = bool(np.all(np.asarray(lo) == 0.0) and np.all(np.asarray(step) == 1.0)
                       and tuple(arec.ball.shape[:3]) == tuple(out.shape[:3]))  # as the CPU driver decides
-    with _launch():
+    with launch_context():
         for q, n in clear:
             clear_kernel[blocks, BLOCK3](q, n, d_out)
         for q, lights, tau, phi in parts:
@@ -440,7 +440,7 @@ def medium_grid(cache: DeviceCache, kind, args, out):
     check_fits(cache, [a for a in args if isinstance(a, np.ndarray)] + [out])
     dev = [cache.get(a) if isinstance(a, np.ndarray) else a for a in args]
     d_out = cuda.device_array(out.shape, out.dtype)
-    with _launch():
+    with launch_context():
         MEDIUM_KERNELS[kind][grid3_for(out.shape), BLOCK3](*dev, d_out)
     d_out.copy_to_host(out)
     cache.put(out, d_out)

@@ -21,13 +21,13 @@ ROOT = PKG.parent
 
 #: Layer of each part of the package, lowest first; a module may import only its own layer or below.
 LAYERS = [
-    ("_kernels", 0), ("device_cache", 1), ("cuda_launch", 1), ("backend", 1), ("inputs", 2), ("datasets", 2), ("metrics", 2), ("stages", 3),
+    ("_kernels", 0), ("device_cache", 1), ("cuda_launch", 1), ("backend", 1), ("device_stages", 1), ("inputs", 2), ("datasets", 2), ("metrics", 2), ("stages", 3),
     ("rendering", 4), ("pyvista", 5), ("scene", 5), ("cli", 5), ("series", 5), ("preintegration", 5), ("", 6),
 ]
 #: Parts that form the array core: no pyvista, no vtk (they run where only numpy and numba exist).
 #: ``rendering`` may convert a result to a PyVista object inside a method (``RenderResult.to_plane``),
 #: never at import and never ``pyvista.plotting``.
-ARRAY_CORE = ("_kernels", "device_cache", "cuda_launch", "backend", "stages")
+ARRAY_CORE = ("_kernels", "device_cache", "cuda_launch", "backend", "device_stages", "stages")
 LAZY_PYVISTA = ("rendering",)
 
 

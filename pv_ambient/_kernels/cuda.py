@@ -3,7 +3,8 @@ scalar function as the CPU driver's loop body (:func:`.raycast.raycast_pixel`,
 :func:`.pathtrace.pathtrace_pixel`, :func:`.residual.residual_pixel`, :func:`.lightvol.sweep_node`,
 :func:`.bake.bake_node`, :func:`.bake.fold_node`, :func:`.bake.clear_node`, and the medium's grids:
 :func:`.medium.sigma_sample_node`, :func:`.lightvol.sigma_node`, :func:`.majorant.majorant_block`,
-:func:`.majorant.cast_majorant_block`), compiled for the GPU by
+:func:`.majorant.cast_majorant_block`; the ball grid's :func:`.medium.scattering_sample`,
+:func:`.sat.box_mean_line`, :func:`.sat.ball_channel_node`), compiled for the GPU by
 :func:`._jit.cuda_kernel`. A kernel only finds its thread's pixel and calls that function: the
 physics exists once, in the scalar functions.
 
@@ -32,11 +33,12 @@ from ._jit import cuda_kernel
 from .bake import bake_node, clear_node, fold_node
 from .lightvol import sigma_node, sweep_node
 from .majorant import cast_majorant_block, majorant_block
-from .medium import sigma_sample_node
+from .medium import scattering_sample, sigma_sample_node
 from .pathtrace import pathtrace_pixel
 from .raycast import SPECIALISATIONS, raycast_pixel, specialisation
 from .models import AMBIENT_SCATTERING, DIFFUSION, SINGLE_SCATTERING
 from .residual import residual_pixel
+from .sat import ball_channel_node, box_mean_line
 
 #: Threads per block (x: the fast index, image columns; y: rows).
 BLOCK = (16, 8)
@@ -174,6 +176,37 @@ def cast_majorant_kernel(mode, field, table, lut_lo, lut_inv, block, sigma_min, 
 #: taking the grid's arguments then its output, one thread per output entry.
 MEDIUM_KERNELS = {"sigma_samples": sigma_samples_kernel, "sigma_nodes": sigma_nodes_kernel,
                   "majorant": majorant_kernel, "cast_majorant": cast_majorant_kernel}
+
+
+@cuda_kernel
+def scattering_kernel(mode, field, table, lut_lo, lut_inv, aux, col, sigma, out):
+    """σs of one albedo column at every data sample, one thread per sample (:func:`.medium.scattering_sample`,
+    the CPU's :func:`.medium.scattering_column` loop body): the ball grid's mean-scattering input."""
+    k, j, i = cuda.grid(3)
+    if i < out.shape[0] and j < out.shape[1] and k < out.shape[2]:
+        out[i, j, k] = scattering_sample(mode, field, table, lut_lo, lut_inv, aux, col, sigma, i, j, k)
+
+
+@cuda_kernel
+def box_mean_kernel(src, dst, axis, i0, f0, i1, f1, inv_len):
+    """One axis of a separable box mean, ``src`` into ``dst``: one thread per line along ``axis``
+    (:func:`.sat.box_mean_line`, the CPU's :func:`.sat.box_mean_plane` / :func:`.sat.box_mean_z`);
+    x indexes the last of the other two axes, the one contiguous in memory for axes 0 and 1."""
+    q, p = cuda.grid(2)
+    n_p = src.shape[1] if axis == 0 else src.shape[0]
+    n_q = src.shape[1] if axis == 2 else src.shape[2]
+    if p < n_p and q < n_q:
+        box_mean_line(src, dst, axis, i0, f0, i1, f1, inv_len, p, q)
+
+
+@cuda_kernel
+def ball_channel_kernel(src, c, ball):
+    """Channel ``c`` of the (nx, ny, nz, 4) ball grid from the box mean ``src``, one thread per
+    sample (:func:`.sat.ball_channel_node`: σ̄ itself for ``c = 0``, else the ball's mean albedo, the
+    CPU's :func:`.sat.ball_albedo_into`)."""
+    k, j, i = cuda.grid(3)
+    if i < ball.shape[0] and j < ball.shape[1] and k < ball.shape[2]:
+        ball_channel_node(src, c, ball, i, j, k)
 
 
 def grid3_for(shape, block=BLOCK3):

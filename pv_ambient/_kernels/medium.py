@@ -272,13 +272,30 @@ def scattering_column(field, table, lut_lo, lut_inv, col, sigma, out):
     lookup of :func:`classify_columns` rounded to float32, times σt in float32 — the product NumPy
     forms from the two arrays, in one parallel pass with no column array."""
     nx, ny, nz = field.shape
-    n = table.shape[0]
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
-                k0, f = table_entry(field[i, j, k], lut_lo, lut_inv, n)
-                a = np.float32((1.0 - f) * table[k0, col] + f * table[k0 + 1, col])
-                out[i, j, k] = sigma[i, j, k] * a
+                out[i, j, k] = scattering_lut(field, table, lut_lo, lut_inv, col, sigma, i, j, k)
+
+
+@scalar(inline=True)
+def scattering_lut(field, table, lut_lo, lut_inv, col, sigma, i, j, k):
+    """σt times albedo column ``col`` at data sample (i, j, k) of a LUT-mode medium: the lookup
+    rounded to float32, times ``sigma[i, j, k]`` in float32 (:func:`scattering_column`'s loop body)."""
+    k0, f = table_entry(field[i, j, k], lut_lo, lut_inv, table.shape[0])
+    a = np.float32((1.0 - f) * table[k0, col] + f * table[k0 + 1, col])
+    return sigma[i, j, k] * a
+
+
+@scalar(inline=True)
+def scattering_sample(mode, field, table, lut_lo, lut_inv, aux, col, sigma, i, j, k):
+    """σs of the albedo column ``col`` (:data:`pv_ambient.inputs.transfer.COL_ALBEDO` + channel in mode LUT, the channel in
+    mode GRID) at data sample (i, j, k), float32: :func:`scattering_lut` in mode LUT, else
+    ``sigma · aux[..., col]`` in float32 — what :meth:`pv_ambient.inputs.transfer.Optics.scattering_channel`
+    forms with NumPy. The GPU's ball grid calls it per sample (:mod:`.cuda`)."""
+    if mode == MODE_LUT:
+        return scattering_lut(field, table, lut_lo, lut_inv, col, sigma, i, j, k)
+    return sigma[i, j, k] * aux[i, j, k, col]
 
 
 @driver

@@ -208,6 +208,86 @@ def mean_extinction_grid(S, ax, ay, az, out):
             out[i, j, k] = m if m > 0.0 else 0.0
 
 
+@scalar(inline=True)
+def interval_mean(p0, p0n, g0, p1, p1n, g1, inv_len):
+    """One sample of a separable box mean along a line: ``(C(c + a) − C(c − a)) / 2a``, clamped at 0,
+    where ``C(x) = (1 − g)·P[i] + g·P[i+1]`` is the line's cumulative integral read from its float64
+    prefix sums — ``p0, p0n`` = ``P[i0], P[i0+1]`` with fraction ``g0`` (the interval's start), ``p1,
+    p1n`` at its end — and ``inv_len = 1/2a`` (:func:`pv_ambient.stages.sat.axis_weights`). The clamp
+    removes the rounding of the difference next to empty regions. The CPU's passes
+    (:func:`box_mean_plane`, :func:`box_mean_z`) and the GPU's (:func:`box_mean_line`) share it."""
+    v = (((1.0 - g1) * p1 + g1 * p1n) - ((1.0 - g0) * p0 + g0 * p0n)) * inv_len
+    return v if v > 0.0 else 0.0
+
+
+@scalar(inline=True)
+def line_at(src, axis, a, p, q):
+    """Entry ``a`` of the line of 3-D array ``src`` along ``axis`` through ``(p, q)`` (the other two
+    indices in order)."""
+    if axis == 0:
+        return src[a, p, q]
+    if axis == 1:
+        return src[p, a, q]
+    return src[p, q, a]
+
+
+@scalar
+def box_mean_line(src, dst, axis, i0, f0, i1, f1, inv_len, p, q):
+    """One line of a separable box mean along ``axis`` (through ``(p, q)``, :func:`line_at`) from
+    ``src`` into ``dst`` (another array): :func:`interval_mean` at every sample, the loop body of
+    the GPU's pass (one thread per line).
+
+    Without a buffer of prefix sums: each end of the interval walks the line with a running float64
+    sum ``P[i+1] = P[i] + src[i]``, from 0, and both ends only move forward as the sample does. The
+    sums are the CPU's, term by term and in its order, so the means equal the CPU's but for the
+    rounding of :func:`interval_mean` itself; and the pass needs no float64 copy of the grid."""
+    n = src.shape[axis]
+    b0 = 0  # the start's cell and P[b0], P[b0 + 1]
+    s0 = 0.0
+    s0n = 0.0 + line_at(src, axis, 0, p, q)
+    b1 = 0  # the end's
+    s1 = 0.0
+    s1n = s0n
+    for c in range(n):
+        a0 = i0[c]
+        a1 = i1[c]
+        while b0 < a0:
+            b0 += 1
+            s0 = s0n
+            s0n = s0n + line_at(src, axis, b0, p, q)
+        while b1 < a1:
+            b1 += 1
+            s1 = s1n
+            s1n = s1n + line_at(src, axis, b1, p, q)
+        v = interval_mean(s0, s0n, f0[c], s1, s1n, f1[c], inv_len)
+        if axis == 0:
+            dst[c, p, q] = v
+        elif axis == 1:
+            dst[p, c, q] = v
+        else:
+            dst[p, q, c] = v
+
+
+@scalar(inline=True)
+def ball_albedo_value(s, m):
+    """The ball's mean albedo of one channel, ``clip(m / s, 0, 1)`` from its mean scattering ``m``
+    and mean extinction ``s`` = σ̄, 0 where σ̄ = 0 (no medium in the ball: nothing scatters)."""
+    v = m / s if s > 0.0 else 0.0
+    return min(max(v, 0.0), 1.0)
+
+
+@scalar(inline=True)
+def ball_channel_node(src, c, ball, i, j, k):
+    """Channel ``c`` of the (nx, ny, nz, 4) ball grid at sample (i, j, k) from the box mean ``src``:
+    σ̄ itself for ``c = 0``, else the ball's mean albedo (:func:`ball_albedo_value`) from the mean
+    scattering ``src`` and channel 0's σ̄ — what :func:`pv_ambient.stages.ball.ball_grid` writes on
+    the CPU (:func:`ball_albedo_into`), the loop body of the GPU's kernel."""
+    if c == 0:
+        ball[i, j, k, 0] = src[i, j, k]
+    else:
+        ball[i, j, k, c] = ball_albedo_value(ball[i, j, k, 0], src[i, j, k])
+
+
 @driver
 def box_mean_plane(src, dst, axis, i0, f0, i1, f1, inv_len):
     """One axis of a separable box mean (:func:`pv_ambient.stages.sat.box_mean_separable`) along
@@ -232,8 +312,7 @@ def box_mean_plane(src, dst, axis, i0, f0, i1, f1, inv_len):
             g0 = f0[c]
             g1 = f1[c]
             for k in range(nz):
-                v = (((1.0 - g1) * P[a1, k] + g1 * P[a1 + 1, k]) - ((1.0 - g0) * P[a0, k] + g0 * P[a0 + 1, k])) * inv_len
-                v = v if v > 0.0 else 0.0
+                v = interval_mean(P[a0, k], P[a0 + 1, k], g0, P[a1, k], P[a1 + 1, k], g1, inv_len)
                 if axis == 0:
                     dst[c, m, k] = v
                 else:
@@ -255,8 +334,7 @@ def box_mean_z(src, dst, i0, f0, i1, f1, inv_len):
                 a1 = i1[c]
                 g0 = f0[c]
                 g1 = f1[c]
-                v = ((1.0 - g1) * P[a1] + g1 * P[a1 + 1] - ((1.0 - g0) * P[a0] + g0 * P[a0 + 1])) * inv_len
-                dst[i, j, c] = v if v > 0.0 else 0.0
+                dst[i, j, c] = interval_mean(P[a0], P[a0 + 1], g0, P[a1], P[a1 + 1], g1, inv_len)
 
 
 @driver
@@ -267,9 +345,7 @@ def ball_albedo_into(sbar, ms, ball, c):
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
-                s = sbar[i, j, k]
-                v = ms[i, j, k] / s if s > 0.0 else 0.0
-                ball[i, j, k, c] = min(max(v, 0.0), 1.0)
+                ball[i, j, k, c] = ball_albedo_value(sbar[i, j, k], ms[i, j, k])
 
 
 @driver
@@ -281,9 +357,7 @@ def ball_albedo(sbar, ms, out):
         i = r // ny
         j = r - i * ny
         for k in range(nz):
-            s = sbar[i, j, k]
-            v = ms[i, j, k] / s if s > 0.0 else 0.0
-            out[i, j, k] = min(max(v, 0.0), 1.0)
+            out[i, j, k] = ball_albedo_value(sbar[i, j, k], ms[i, j, k])
 
 
 @driver

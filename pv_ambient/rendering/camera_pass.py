@@ -102,12 +102,14 @@ def gather_inputs(renderer, req, model, options):
     inputs = _Inputs(grid=renderer.stages.light_grid(req.light_resolution) if model != "emission_absorption" else None)
     _lights(renderer, req, model, inputs)
     if model == "ambient_scattering" and inputs.lights:
+        # the table's key reads the ball grid's albedo range: the ball grid on the render's backend
+        renderer.stages.albedo_range(req.radius, req.backend)
         _ambient(renderer, req, model, inputs)
     if MODEL_SPECS[model].ball:
         if inputs.lights and _reads_ball_d(renderer, req, model, inputs):
-            inputs.dgrid = renderer.stages.ball_d(req.radius, req.phase, req.table_quality)
+            inputs.dgrid = renderer.stages.ball_d(req.radius, req.phase, req.table_quality, req.backend)
         else:
-            inputs.ball = renderer.stages.ball_grid(req.radius)
+            inputs.ball = renderer.stages.ball_grid(req.radius, req.backend)
     if model == "diffusion" and inputs.lights:
         _diffusion(renderer, req, options, inputs)
     return inputs

@@ -141,25 +141,29 @@ class SceneStages:
 
         return self.cache.get(("step_opacity", float(step)), lambda: step_opacity(self.optics, step))
 
-    def ball_grid(self, radius):
+    def ball_grid(self, radius, backend="cpu"):
         """σ̄ and the ball's mean albedo per channel at every data sample, float32 (nx, ny, nz, 4)
-        (:func:`pv_ambient.stages.ball.ball_grid`; cached per radius)."""
-        from ..stages.ball import ball_grid
+        (:func:`pv_ambient.stages.ball.ball_grid`; cached per radius; on ``backend``,
+        :func:`pv_ambient.stages.ball.ball_on_device`)."""
+        from ..stages.ball import ball_grid, ball_on_device
 
         def build():
-            sigma = self.sigma_samples()
+            sigma = self.sigma_samples(backend)
+            ball = ball_on_device(self.optics, sigma, self.geometry.spacing, radius, self.device_for(backend))
+            if ball is not None:
+                return ball
             return ball_grid(sigma, self.optics.albedo_channel, self.geometry.spacing, radius,
                              same_as_previous=self.optics.albedo_same_as_previous(),
                              scattering=lambda c: self.optics.scattering_channel(c, sigma))
 
         return self.cache.get(("ball", float(radius)), build)
 
-    def albedo_range(self, radius):
+    def albedo_range(self, radius, backend="cpu"):
         """(min, max) of the ball-mean albedo over the medium (cached with the ball grid: every
-        frame keys its table by it)."""
+        frame keys its table by it; the ball grid, when this makes it, on ``backend``)."""
         from ..stages.ball import albedo_range
 
-        return self.cache.get(("albedo_range", float(radius)), lambda: albedo_range(self.ball_grid(radius)))
+        return self.cache.get(("albedo_range", float(radius)), lambda: albedo_range(self.ball_grid(radius, backend)))
 
     def ball_inside(self, radius):
         """The ball grid with σ̄ averaged over the part of the ball inside the grid (the tube
@@ -327,7 +331,7 @@ class SceneStages:
         return self.cache[key]
 
     # -- baked in-scattering and diffusion ---------------------------------------------------
-    def ball_d(self, radius, phase, quality="balanced"):
+    def ball_d(self, radius, phase, quality="balanced", backend="cpu"):
         """D(r σ̄, ā) per data sample and channel for an isotropic ``phase``
         (:func:`pv_ambient.stages.bake.ball_d`; cached per radius and table slice): what ambient
         scattering's bake reads on the row driver. The ball grid it is made from is dropped from the
@@ -339,11 +343,13 @@ class SceneStages:
         key = ("ball_d", float(radius), self.table_key(phase, radius, quality))
         if key not in self.cache:
             table = self.table(phase, radius, quality)
-            ball = self.ball_grid(radius)
+            ball = self.ball_grid(radius, backend)  # D itself on the CPU
             self.cache[key] = self._timed("ball D", lambda: ball_d(ball, table, radius))
-            del ball
             if ("ball", float(radius)) in self.cache:
                 del self.cache[("ball", float(radius))]
+                if self._device.cache is not None:
+                    self._device.cache.forget(ball)  # and its GPU copy, if the GPU made it
+            del ball
         return self.cache[key]
 
     def incident(self, model_id, lights, grid, records, key, taus, phis=None, diffusion=None, dgrid=None,

@@ -51,6 +51,36 @@ def ball_grid(sigma, albedo, spacing, radius, same_as_previous=None, scattering=
     return out
 
 
+def ball_on_device(optics, sigma, spacing, radius, device_cache):
+    """:func:`ball_grid` of ``optics`` (σt on the samples ``sigma``, :func:`pv_ambient.stages.medium.sigma_samples`)
+    on the GPU (:func:`pv_ambient.device_stages.ball_grid`: σs per sample, the separable box means
+    and the ball's albedo from the CPU's scalar functions; the device copy kept in ``device_cache``
+    for the ray cast and the bake that read it). None without a device cache, for an empty grid or
+    when it does not fit in the GPU's free memory: the caller then computes it on the CPU."""
+    if device_cache is None or np.size(sigma) == 0:
+        return None
+    from ..backend import DeviceMemoryError
+    from ..device_stages import ball_grid as on_device
+    from ..inputs.transfer import COL_ALBEDO
+    from .._kernels.medium import MODE_LUT
+    from .sat import axis_weights, box_half_edges
+
+    sigma = np.ascontiguousarray(sigma, np.float32)
+    half = box_half_edges(spacing, radius)
+    passes = [(ax, *axis_weights(sigma.shape[ax], float(a)), 1.0 / (2.0 * float(a)))
+              for ax, a in enumerate(half) if a > 0.5]  # a half-edge ≤ ½ keeps each sample's cell
+    lut = optics.mode == MODE_LUT
+    cols = tuple(COL_ALBEDO + c if lut else c for c in range(3))
+    medium = (int(optics.mode), np.ascontiguousarray(optics.field), optics.table, float(optics.lut_lo),
+              float(optics.lut_inv), optics.aux)
+    out = np.empty(sigma.shape + (4,), np.float32)
+    try:
+        on_device(device_cache, medium, sigma, passes, cols, optics.albedo_same_as_previous(), out)
+    except DeviceMemoryError:
+        return None
+    return out
+
+
 def _mean_in_place(field, spacing, radius):
     """:func:`pv_ambient.stages.sat.mean_extinction` of a float32 C-contiguous array of this module's
     own, overwritten (no copy)."""

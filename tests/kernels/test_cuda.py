@@ -103,7 +103,8 @@ def test_physics_exists_once():
                "sweep_layer_kernel": "sweep_node", "bake": "bake_node", "fold_kernel": "fold_node",
                "clear_kernel": "clear_node", "sigma_samples_kernel": "sigma_sample_node",
                "sigma_nodes_kernel": "sigma_node", "majorant_kernel": "majorant_block",
-               "cast_majorant_kernel": "cast_majorant_block"}
+               "cast_majorant_kernel": "cast_majorant_block", "scattering_kernel": "scattering_sample",
+               "box_mean_kernel": "box_mean_line", "ball_channel_kernel": "ball_channel_node"}
     assert set(kernels) == set(scalars)
     for name, node in kernels.items():
         called = [c.func.id if isinstance(c.func, ast.Name) else c.func.attr for c in ast.walk(node)
@@ -113,7 +114,7 @@ def test_physics_exists_once():
         rows = 0 if scalars[name] not in ("raycast_pixel", "pathtrace_pixel", "residual_pixel", "sweep_node") else 1
         assert sum(isinstance(b, ast.BinOp) for b in ast.walk(node)) == rows, name
 
-    from pv_ambient._kernels import lightvol, majorant, medium, pathtrace, raycast, residual
+    from pv_ambient._kernels import lightvol, majorant, medium, pathtrace, raycast, residual, sat
 
     assert "raycast_pixel(" in inspect.getsource(raycast.raycast_driver)
     assert "pathtrace_pixel(" in inspect.getsource(pathtrace.pathtrace_image.py_func)
@@ -123,6 +124,14 @@ def test_physics_exists_once():
     assert "sigma_node(" in inspect.getsource(lightvol.sample_sigma_grid.py_func)
     assert "table_column(" in inspect.getsource(medium.classify_columns.py_func)
     assert "table_column(" in inspect.getsource(medium.sigma_sample_node.py_func)
+    # the ball grid (tests/kernels/test_cuda_ball.py): the CPU passes' and albedo's loop bodies
+    assert "interval_mean(" in inspect.getsource(sat.box_mean_plane.py_func)
+    assert "interval_mean(" in inspect.getsource(sat.box_mean_z.py_func)
+    assert "interval_mean(" in inspect.getsource(sat.box_mean_line.py_func)
+    assert "ball_albedo_value(" in inspect.getsource(sat.ball_albedo_into.py_func)
+    assert "ball_albedo_value(" in inspect.getsource(sat.ball_channel_node.py_func)
+    assert "scattering_lut(" in inspect.getsource(medium.scattering_column.py_func)
+    assert "scattering_lut(" in inspect.getsource(medium.scattering_sample.py_func)
     assert "majorant_block(" in inspect.getsource(majorant.build_majorant.py_func)
     assert "cast_majorant_block(" in inspect.getsource(majorant.build_cast_majorant.py_func)
     # the scene travels in the records of _kernels/records.py, not in ~40 positional arguments
